@@ -1,0 +1,123 @@
+// Vectorised kernels, lattice mass and wall geometry for tests and the Python
+// layer: thin loops over numpy arrays around kernels.hpp and walls.hpp.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cmath>
+
+#include "bind_arrays.hpp"
+#include "kernels.hpp"
+#include "walls.hpp"
+
+namespace py = pybind11;
+using namespace sphfluid;
+using bind::InArray;
+
+namespace {
+
+template <class Fn>
+py::array_t<double> radial(const InArray& r, double h, Fn fn) {
+  const Kernels k(h);
+  py::array_t<double> out(r.request().shape);
+  const double* in = r.data();
+  double* o = out.mutable_data();
+  for (py::ssize_t i = 0; i < r.size(); ++i) o[i] = fn(k, in[i]);
+  return out;
+}
+
+template <class Fn>
+py::array_t<double> vector_valued(const InArray& r, double h, Fn fn) {
+  const auto rs = bind::to_vec2(r, "r");
+  const Kernels k(h);
+  py::array_t<double> out({py::ssize_t(rs.size()), py::ssize_t(2)});
+  auto o = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rs.size(); ++i) {
+    const Vec2 g = fn(k, rs[i]);
+    o(i, 0) = g.x();
+    o(i, 1) = g.y();
+  }
+  return out;
+}
+
+void check_h(double h) {
+  if (!(h > 0 && std::isfinite(h))) throw std::invalid_argument("h must be > 0");
+}
+
+}  // namespace
+
+void bind_kernels(py::module_& m) {
+  m.def("w_poly6", [](const InArray& r, double h) {
+    check_h(h);
+    return radial(r, h, [](const Kernels& k, double x) { return k.w_poly6(x * x); });
+  }, py::arg("r"), py::arg("h"), "poly6 W(r) = 4/(pi h^8) (h^2 - r^2)^3, r >= 0");
+  m.def("lap_poly6", [](const InArray& r, double h) {
+    check_h(h);
+    return radial(r, h, [](const Kernels& k, double x) { return k.lap_poly6(x * x); });
+  }, py::arg("r"), py::arg("h"), "poly6 Laplacian -48/(pi h^8) (h^2 - r^2)(h^2 - 3 r^2)");
+  m.def("w_spiky", [](const InArray& r, double h) {
+    check_h(h);
+    return radial(r, h, [](const Kernels& k, double x) { return k.w_spiky(x); });
+  }, py::arg("r"), py::arg("h"), "spiky W(r) = 10/(pi h^5) (h - r)^3");
+  m.def("lap_visc", [](const InArray& r, double h) {
+    check_h(h);
+    return radial(r, h, [](const Kernels& k, double x) { return k.lap_visc(x); });
+  }, py::arg("r"), py::arg("h"), "viscosity Laplacian 40/(pi h^5) (h - r)");
+  m.def("grad_poly6", [](const InArray& r, double h) {
+    check_h(h);
+    return vector_valued(r, h, [](const Kernels& k, const Vec2& x) {
+      return k.grad_poly6(x, x.squaredNorm());
+    });
+  }, py::arg("r_ij"), py::arg("h"), "poly6 gradient for offsets r_ij of shape (n, 2)");
+  m.def("grad_spiky", [](const InArray& r, double h) {
+    check_h(h);
+    return vector_valued(r, h, [](const Kernels& k, const Vec2& x) {
+      return k.grad_spiky(x, x.norm());
+    });
+  }, py::arg("r_ij"), py::arg("h"), "spiky gradient for offsets r_ij of shape (n, 2)");
+  m.def("lattice_mass", [](double rho0, double dx, double h) {
+    check_h(h);
+    if (!(dx > 0 && rho0 > 0)) throw std::invalid_argument("rho0 and dx must be > 0");
+    // Mass that gives density rho0 at a particle inside an infinite square
+    // lattice of spacing dx: rho0 / sum_j W_poly6(|r_ij|), self included.
+    const Kernels k(h);
+    const int reach = static_cast<int>(std::ceil(h / dx));
+    double sum = 0;
+    for (int i = -reach; i <= reach; ++i)
+      for (int j = -reach; j <= reach; ++j) sum += k.w_poly6((i * i + j * j) * dx * dx);
+    return rho0 / sum;
+  }, py::arg("rho0"), py::arg("dx"), py::arg("h"),
+     "Particle mass giving density rho0 inside a filled square lattice of spacing dx");
+}
+
+void bind_walls(py::module_& m) {
+  m.def("ghosts", [](const InArray& walls, const InArray& point, double h) {
+    check_h(h);
+    if (point.size() != 2) throw std::invalid_argument("point: expected [x, y]");
+    const Vec2 p(point.data()[0], point.data()[1]);
+    const WallSet set(bind::to_segments(walls), h);
+    std::vector<Vec2> ghosts;
+    set.for_each_ghost(p, [&](const Vec2& r) { ghosts.push_back(p - r); });
+    py::array_t<double> out({py::ssize_t(ghosts.size()), py::ssize_t(2)});
+    auto o = out.mutable_unchecked<2>();
+    for (std::size_t i = 0; i < ghosts.size(); ++i) {
+      o(i, 0) = ghosts[i].x();
+      o(i, 1) = ghosts[i].y();
+    }
+    return out;
+  }, py::arg("walls"), py::arg("point"), py::arg("h"),
+     "Positions of the wall ghosts of a particle at point (seed 4.1)");
+  m.def("collide", [](const InArray& walls, const InArray& x_old, const InArray& x_new,
+                      const InArray& v, double restitution) {
+    if (x_old.size() != 2 || x_new.size() != 2 || v.size() != 2)
+      throw std::invalid_argument("x_old, x_new, v: expected [x, y]");
+    const WallSet set(bind::to_segments(walls), 1.0);
+    const Vec2 xo(x_old.data()[0], x_old.data()[1]);
+    Vec2 xn(x_new.data()[0], x_new.data()[1]);
+    Vec2 vv(v.data()[0], v.data()[1]);
+    set.collide(xo, xn, vv, restitution);
+    return py::make_tuple(py::make_tuple(xn.x(), xn.y()), py::make_tuple(vv.x(), vv.y()));
+  }, py::arg("walls"), py::arg("x_old"), py::arg("x_new"), py::arg("v"),
+     py::arg("restitution") = 1.0,
+     "Move from x_old towards x_new with velocity v, reflecting off walls (seed 4.2); "
+     "returns (x, v)");
+}

@@ -1,0 +1,136 @@
+// Bindings of SimParams and Solver: construction from numpy arrays, stepping
+// with the GIL released, read-only views of the particle fields.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "bind_arrays.hpp"
+#include "solver.hpp"
+
+namespace py = pybind11;
+using namespace sphfluid;
+using bind::InArray;
+
+namespace {
+
+Vec2 pair_to_vec(const std::array<double, 2>& a) { return Vec2(a[0], a[1]); }
+std::array<double, 2> vec_to_pair(const Vec2& v) { return {v.x(), v.y()}; }
+
+std::vector<Id> to_ids(const py::object& ids) {
+  if (ids.is_none()) return {};
+  auto a = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(ids);
+  if (!a || a.ndim() != 1) throw std::invalid_argument("ids: expected a 1-D integer array");
+  return std::vector<Id>(a.data(), a.data() + a.size());
+}
+
+}  // namespace
+
+void bind_solver(py::module_& m) {
+  py::register_exception<InstabilityError>(m, "InstabilityError", PyExc_RuntimeError);
+
+  py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
+      .def(py::init<>())
+      .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
+      .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
+      .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")
+      .def_readwrite("k", &SimParams::k, "gas constant of p = k (rho - rho0), m^2/s^2")
+      .def_readwrite("eta", &SimParams::eta, "dynamic viscosity, Pa s")
+      .def_readwrite("sigma", &SimParams::sigma, "surface tension coefficient, N")
+      .def_property(
+          "gravity", [](const SimParams& p) { return vec_to_pair(p.gravity); },
+          [](SimParams& p, const std::array<double, 2>& g) { p.gravity = pair_to_vec(g); },
+          "body acceleration [gx, gy], m/s^2")
+      .def_property(
+          "domain_min", [](const SimParams& p) { return vec_to_pair(p.domain_min); },
+          [](SimParams& p, const std::array<double, 2>& g) { p.domain_min = pair_to_vec(g); },
+          "lower corner of the domain, m")
+      .def_property(
+          "domain_max", [](const SimParams& p) { return vec_to_pair(p.domain_max); },
+          [](SimParams& p, const std::array<double, 2>& g) { p.domain_max = pair_to_vec(g); },
+          "upper corner of the domain, m")
+      .def_readwrite("surface_threshold", &SimParams::surface_threshold,
+                     "|grad c| above which surface tension acts, 1/m (< 0: 0.323 / h)")
+      .def_property_readonly("effective_surface_threshold",
+                             &SimParams::effective_surface_threshold,
+                             "the threshold in use, 1/m")
+      .def_readwrite("ghost_mass_ratio", &SimParams::ghost_mass_ratio,
+                     "wall ghost mass / particle mass")
+      .def_readwrite("ghost_density_ratio", &SimParams::ghost_density_ratio,
+                     "wall ghost density / rest density")
+      .def_readwrite("restitution", &SimParams::restitution,
+                     "normal restitution of the wall reflection, in [0, 1]")
+      .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)");
+
+  py::class_<Solver>(m, "Solver", "The seed SPH method on a set of particles and walls.")
+      .def(py::init([](const SimParams& p, const InArray& x, const InArray& v, const InArray& walls,
+                       const py::object& ids) {
+             return new Solver(p, bind::to_vec2(x, "positions"), bind::to_vec2(v, "velocities"),
+                               to_ids(ids), bind::to_segments(walls));
+           }),
+           py::arg("params"), py::arg("positions"), py::arg("velocities"), py::arg("walls"),
+           py::arg("ids") = py::none(),
+           "Solver(params, positions (n, 2), velocities (n, 2), walls (s, 2, 2), ids=None).\n"
+           "Particles outside the domain are removed (and counted) at once.")
+      .def("step", &Solver::step, py::arg("dt"), py::arg("n") = 1,
+           py::call_guard<py::gil_scoped_release>(),
+           "Advance n steps of size dt (GIL released). Raises InstabilityError on blow-up.")
+      .def("compute_forces", &Solver::compute_forces, py::call_guard<py::gil_scoped_release>(),
+           "Density, pressure and acceleration for the current state; nothing moves.")
+      .def(
+          "set_state",
+          [](Solver& s, const InArray& x, const InArray& v, const py::object& ids) {
+            auto xs = bind::to_vec2(x, "positions");
+            auto vs = bind::to_vec2(v, "velocities");
+            auto is = to_ids(ids);
+            py::gil_scoped_release release;
+            s.set_state(std::move(xs), std::move(vs), std::move(is));
+          },
+          py::arg("positions"), py::arg("velocities"), py::arg("ids") = py::none(),
+          "Replace all particles (n may change); ids default to 0..n-1.")
+      .def_property("threads", &Solver::threads, &Solver::set_threads,
+                    "OpenMP threads used by the step")
+      .def_property_readonly("params", &Solver::params)
+      .def_property_readonly("n_particles", &Solver::size)
+      .def_property_readonly("time", &Solver::time, "simulated time, s")
+      .def_property_readonly("step_count", &Solver::step_count)
+      .def_property_readonly("removed_particles", &Solver::removed,
+                             "particles removed for leaving the domain")
+      .def_property_readonly("features", &Solver::features,
+                             "bit set of active optional terms: 1 viscosity, 2 surface "
+                             "tension, 4 walls")
+      .def_property_readonly("neighbour_pairs", &Solver::neighbour_pairs,
+                             "stored neighbour pairs (i, j != i) of the last evaluation")
+      .def_property_readonly(
+          "positions", [](const Solver& s) { return bind::view<Vec2, 2>(s.particles().x); },
+          "(n, 2) read-only view, m")
+      .def_property_readonly(
+          "velocities", [](const Solver& s) { return bind::view<Vec2, 2>(s.particles().v); },
+          "(n, 2) read-only view, m/s")
+      .def_property_readonly(
+          "accelerations", [](const Solver& s) { return bind::view<Vec2, 2>(s.particles().a); },
+          "(n, 2) read-only view of the last force evaluation, m/s^2")
+      .def_property_readonly(
+          "densities", [](const Solver& s) { return bind::view<Real, 1>(s.particles().rho); },
+          "(n,) read-only view of the last evaluation, kg/m^3")
+      .def_property_readonly(
+          "pressures", [](const Solver& s) { return bind::view<Real, 1>(s.particles().p); },
+          "(n,) read-only view of the last evaluation, Pa")
+      .def_property_readonly(
+          "ids", [](const Solver& s) { return bind::view<Id, 1>(s.particles().id); },
+          "(n,) read-only view of the stable particle ids")
+      .def_property_readonly(
+          "walls",
+          [](const Solver& s) {
+            const auto& segs = s.walls().segments();
+            py::array_t<double> out({py::ssize_t(segs.size()), py::ssize_t(2), py::ssize_t(2)});
+            auto w = out.mutable_unchecked<3>();
+            for (std::size_t i = 0; i < segs.size(); ++i) {
+              w(i, 0, 0) = segs[i].a.x();
+              w(i, 0, 1) = segs[i].a.y();
+              w(i, 1, 0) = segs[i].b.x();
+              w(i, 1, 1) = segs[i].b.y();
+            }
+            return out;
+          },
+          "(s, 2, 2) copy of the wall segments, m");
+}

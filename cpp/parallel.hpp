@@ -1,0 +1,87 @@
+// OpenMP helpers that also compile without OpenMP, and the chunked CSR builder:
+// each thread fills a contiguous block of particles into its own buffer, then
+// the blocks are concatenated, so the result does not depend on thread count.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "types.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace sphfluid {
+
+inline int resolve_threads(int requested) {
+#ifdef _OPENMP
+  return requested > 0 ? requested : omp_get_max_threads();
+#else
+  (void)requested;
+  return 1;
+#endif
+}
+
+inline int thread_rank() {
+#ifdef _OPENMP
+  return omp_get_thread_num();
+#else
+  return 0;
+#endif
+}
+
+inline int thread_team_size() {
+#ifdef _OPENMP
+  return omp_get_num_threads();
+#else
+  return 1;
+#endif
+}
+
+using Offset = std::int64_t;
+
+// Compressed rows: the entries of particle i are items[start[i] .. start[i+1]).
+template <class T>
+struct Csr {
+  std::vector<Offset> start;
+  std::vector<T> items;
+  std::vector<std::vector<T>> per_thread;  // scratch kept between steps
+
+  Offset begin(Index i) const { return start[i]; }
+  Offset end(Index i) const { return start[i + 1]; }
+};
+
+// emit(i, out) appends particle i's entries to out (a std::vector<T>).
+template <class T, class Emit>
+void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
+  const int nt_max = resolve_threads(threads);
+  csr.start.resize(static_cast<std::size_t>(n) + 1);
+  if (static_cast<int>(csr.per_thread.size()) < nt_max) csr.per_thread.resize(nt_max);
+  std::vector<Offset> base(nt_max + 1, 0);
+#pragma omp parallel num_threads(nt_max)
+  {
+    const int t = thread_rank(), nt = thread_team_size();
+    const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
+    const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
+    std::vector<T>& local = csr.per_thread[t];
+    local.clear();
+    for (Index i = lo; i < hi; ++i) {
+      csr.start[i] = static_cast<Offset>(local.size());
+      emit(i, local);
+    }
+    base[t + 1] = static_cast<Offset>(local.size());
+#pragma omp barrier
+#pragma omp single
+    {
+      for (int s = 0; s < nt_max; ++s) base[s + 1] += base[s];
+      csr.items.resize(base[nt_max]);
+    }
+    const Offset off = base[t];
+    for (Index i = lo; i < hi; ++i) csr.start[i] += off;
+    std::copy(local.begin(), local.end(), csr.items.begin() + off);
+  }
+  csr.start[n] = static_cast<Offset>(csr.items.size());
+}
+
+}  // namespace sphfluid

@@ -1,0 +1,49 @@
+// SimParams: every physical and numerical constant of a run, in SI units.
+// Filled by the Python scene loader (or by hand in tests); read by the Solver.
+// Feature flags name the optional terms so the step can be specialised on them.
+#pragma once
+
+#include "types.hpp"
+
+namespace sphfluid {
+
+enum Feature : unsigned {
+  kViscosity = 1u << 0,       // eta > 0: seed eq. 17
+  kSurfaceTension = 1u << 1,  // sigma > 0: seed eqs. 18-20
+  kWalls = 1u << 2,           // at least one wall segment: seed section 4
+};
+
+struct SimParams {
+  Real h = 0.04;         // smoothing length (kernel support), m
+  Real mass = 0.4;       // particle mass, kg per metre of depth
+  Real rho0 = 1000.0;    // rest density, kg/m^3
+  Real k = 250.0;        // gas constant of p = k (rho - rho0), m^2/s^2
+  Real eta = 0.0;        // dynamic viscosity, Pa s
+  Real sigma = 0.0;      // surface tension coefficient, N (2D)
+  Vec2 gravity{0.0, -9.81};  // m/s^2
+  Vec2 domain_min{-1.0, -1.0};  // particles leaving this box are removed, m
+  Vec2 domain_max{1.0, 1.0};
+
+  // Threshold on |grad c| above which surface tension acts (Mueller 2003).
+  // A negative value selects the default kSurfaceThresholdTimesH / h.
+  Real surface_threshold = -1.0;  // 1/m
+
+  // Wall ghost particle (seed 4.1): mass and density relative to the fluid's
+  // particle mass and rest density. See README "Choices the paper leaves open".
+  Real ghost_mass_ratio = 1.0;
+  Real ghost_density_ratio = 1.0;
+
+  // Normal restitution of the reflection collision (seed 4.2); 1 = mirror.
+  Real restitution = 1.0;
+
+  int threads = 0;  // OpenMP threads; 0 = the OpenMP default
+
+  // Mueller et al. (2003) use l = 7.065 /m with h = 0.0457 m, i.e. l h = 0.323.
+  static constexpr Real kSurfaceThresholdTimesH = 0.323;
+
+  Real effective_surface_threshold() const {
+    return surface_threshold >= 0 ? surface_threshold : kSurfaceThresholdTimesH / h;
+  }
+};
+
+}  // namespace sphfluid

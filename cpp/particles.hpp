@@ -1,0 +1,103 @@
+// ParticleSet: one contiguous array per particle field (structure of arrays),
+// re-ordered together by one permutation. Buffers are shared with the numpy
+// views handed to Python, and are copied before any write that would move or
+// resize memory a view still points at (copy-on-write), so a view never dangles.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "types.hpp"
+
+namespace sphfluid {
+
+template <class T>
+class Field {
+ public:
+  using Buffer = std::vector<T>;
+
+  Field() : buf_(std::make_shared<Buffer>()) {}
+
+  T* data() { return buf_->data(); }
+  const T* data() const { return buf_->data(); }
+  T& operator[](std::size_t i) { return (*buf_)[i]; }
+  const T& operator[](std::size_t i) const { return (*buf_)[i]; }
+  std::size_t size() const { return buf_->size(); }
+
+  // The buffer as Python sees it: a view holds this pointer, keeping it alive.
+  std::shared_ptr<Buffer> share() const { return buf_; }
+
+  void resize(std::size_t n) {
+    detach();
+    buf_->resize(n);
+  }
+
+  // out[k] = in[order[k]] for every k; order has size() entries.
+  void permute(const std::vector<Index>& order) {
+    if (!tmp_ || tmp_.use_count() > 1) tmp_ = std::make_shared<Buffer>();
+    tmp_->resize(order.size());
+    const Buffer& in = *buf_;
+    Buffer& out = *tmp_;
+    const Index n = static_cast<Index>(order.size());
+    for (Index k = 0; k < n; ++k) out[k] = in[order[k]];
+    buf_.swap(tmp_);
+  }
+
+  // Keep the entries whose keep[i] is true, in order; returns how many remain.
+  std::size_t compact(const std::vector<char>& keep) {
+    detach();
+    Buffer& b = *buf_;
+    std::size_t w = 0;
+    for (std::size_t i = 0; i < b.size(); ++i)
+      if (keep[i]) b[w++] = b[i];
+    b.resize(w);
+    return w;
+  }
+
+ private:
+  // Before resizing in place, stop sharing memory with a numpy view.
+  void detach() {
+    if (buf_.use_count() > 1) buf_ = std::make_shared<Buffer>(*buf_);
+  }
+
+  std::shared_ptr<Buffer> buf_;
+  std::shared_ptr<Buffer> tmp_;  // scratch for permute(), reused every step
+};
+
+struct ParticleSet {
+  Field<Vec2> x;    // position, m
+  Field<Vec2> v;    // velocity, m/s
+  Field<Vec2> a;    // acceleration of the last force evaluation, m/s^2
+  Field<Real> rho;  // density of the last evaluation, kg/m^3
+  Field<Real> p;    // pressure of the last evaluation, Pa
+  Field<Id> id;     // stable identity; storage order changes every step
+
+  Index size() const { return static_cast<Index>(x.size()); }
+
+  void resize(Index n) {
+    x.resize(n);
+    v.resize(n);
+    a.resize(n);
+    rho.resize(n);
+    p.resize(n);
+    id.resize(n);
+  }
+
+  // Reorder the state (x, v, id); derived fields are recomputed after a sort.
+  void permute_state(const std::vector<Index>& order) {
+    x.permute(order);
+    v.permute(order);
+    id.permute(order);
+  }
+
+  void compact(const std::vector<char>& keep) {
+    x.compact(keep);
+    v.compact(keep);
+    a.compact(keep);
+    rho.compact(keep);
+    p.compact(keep);
+    id.compact(keep);
+  }
+};
+
+}  // namespace sphfluid

@@ -1,0 +1,286 @@
+// The seed method's step (SPEC.md, seed pseudocode 4.3) as ordered phases, each
+// one parallel loop in gather form: iteration i reads its neighbours and writes
+// only particle i, so results do not depend on the thread count.
+#include "solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace sphfluid {
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument(what);
+}
+
+std::string fmt(const Vec2& u) {
+  std::ostringstream s;
+  s.precision(6);
+  s << "(" << u.x() << ", " << u.y() << ")";
+  return s.str();
+}
+
+}  // namespace
+
+Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector<Vec2> velocities,
+               std::vector<Id> ids, std::vector<Segment> walls)
+    : params_(params), kern_(params.h > 0 ? params.h : 1) {
+  const SimParams& P = params_;
+  require(std::isfinite(P.h) && P.h > 0, "smoothing length h must be > 0");
+  require(std::isfinite(P.mass) && P.mass > 0, "particle mass must be > 0");
+  require(std::isfinite(P.rho0) && P.rho0 > 0, "rest density must be > 0");
+  require(std::isfinite(P.k) && P.k >= 0, "gas constant k must be >= 0");
+  require(std::isfinite(P.eta) && P.eta >= 0, "viscosity must be >= 0");
+  require(std::isfinite(P.sigma) && P.sigma >= 0, "surface tension must be >= 0");
+  require(P.gravity.allFinite(), "gravity must be finite");
+  require(P.domain_min.allFinite() && P.domain_max.allFinite() &&
+              (P.domain_min.array() < P.domain_max.array()).all(),
+          "domain min must be below max in x and y");
+  require(std::isfinite(P.surface_threshold), "surface threshold must be finite");
+  require(std::isfinite(P.restitution) && P.restitution >= 0 && P.restitution <= 1,
+          "restitution must be in [0, 1]");
+  require(std::isfinite(P.ghost_mass_ratio) && P.ghost_mass_ratio > 0,
+          "ghost mass ratio must be > 0");
+  require(std::isfinite(P.ghost_density_ratio) && P.ghost_density_ratio > 0,
+          "ghost density ratio must be > 0");
+  require(P.threads >= 0, "threads must be >= 0");
+  threads_ = resolve_threads(P.threads);
+  walls_ = WallSet(std::move(walls), P.h);
+
+  features_ = (P.eta > 0 ? kViscosity : 0u) | (P.sigma > 0 ? kSurfaceTension : 0u) |
+              (walls_.empty() ? 0u : kWalls);
+  // One instantiation of the whole step per feature set, chosen here once.
+  static const StepFn steps[8] = {
+      &Solver::step_impl<0>, &Solver::step_impl<1>, &Solver::step_impl<2>,
+      &Solver::step_impl<3>, &Solver::step_impl<4>, &Solver::step_impl<5>,
+      &Solver::step_impl<6>, &Solver::step_impl<7>};
+  static const EvalFn evals[8] = {
+      &Solver::evaluate_impl<0>, &Solver::evaluate_impl<1>, &Solver::evaluate_impl<2>,
+      &Solver::evaluate_impl<3>, &Solver::evaluate_impl<4>, &Solver::evaluate_impl<5>,
+      &Solver::evaluate_impl<6>, &Solver::evaluate_impl<7>};
+  step_fn_ = steps[features_];
+  eval_fn_ = evals[features_];
+
+  set_state(std::move(positions), std::move(velocities), std::move(ids));
+}
+
+void Solver::set_threads(int threads) {
+  require(threads >= 0, "threads must be >= 0");
+  threads_ = resolve_threads(threads);
+}
+
+void Solver::check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
+                         const std::vector<Id>& ids) const {
+  require(x.size() == v.size(), "positions and velocities differ in length");
+  require(ids.empty() || ids.size() == x.size(), "ids and positions differ in length");
+  require(x.size() < static_cast<std::size_t>(INT32_MAX), "too many particles");
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    require(x[i].allFinite(), "position " + std::to_string(i) + " is not finite");
+    require(v[i].allFinite(), "velocity " + std::to_string(i) + " is not finite");
+  }
+}
+
+void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities,
+                       std::vector<Id> ids) {
+  check_state(positions, velocities, ids);
+  const Index n = static_cast<Index>(positions.size());
+  ps_.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    ps_.x[i] = positions[i];
+    ps_.v[i] = velocities[i];
+    ps_.id[i] = ids.empty() ? Id(i) : ids[i];
+  }
+  remove_outside_domain();
+  compute_forces();
+}
+
+void Solver::step(Real dt, int n) {
+  require(std::isfinite(dt) && dt > 0, "time step must be > 0");
+  require(n >= 0, "number of steps must be >= 0");
+  for (int s = 0; s < n; ++s) (this->*step_fn_)(dt);
+}
+
+void Solver::compute_forces() { (this->*eval_fn_)(); }
+
+// --- phases -----------------------------------------------------------------
+
+template <unsigned F>
+void Solver::step_impl(Real dt) {
+  evaluate_impl<F>();
+  integrate<F>(dt);
+  remove_outside_domain();
+  time_ += dt;
+  ++step_count_;
+}
+
+template <unsigned F>
+void Solver::evaluate_impl() {
+  sort_and_find_neighbours();
+  if constexpr ((F & kWalls) != 0) {
+    // Wall ghosts of every particle, found once and reused by both passes.
+    const Vec2* x = ps_.x.data();
+    build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, std::vector<Vec2>& out) {
+      walls_.for_each_ghost(x[i], [&](const Vec2& r) { out.push_back(r); });
+    });
+  }
+  compute_density<F>();
+  compute_accelerations<F>();
+}
+
+void Solver::sort_and_find_neighbours() {
+  const Index n = size();
+  grid_.sort(ps_.x.data(), n, params_.h, order_);
+  ps_.permute_state(order_);
+  grid_.neighbours(ps_.x.data(), n, params_.h, threads_, nbrs_);
+}
+
+// Seed eq. 10 with the self term, plus the wall ghosts (4.1); EOS eq. 15.
+template <unsigned F>
+void Solver::compute_density() {
+  const Index n = size();
+  const Vec2* x = ps_.x.data();
+  Real* rho = ps_.rho.data();
+  Real* p = ps_.p.data();
+  const Real m = params_.mass, k = params_.k, rho0 = params_.rho0;
+  const Real m_ghost = params_.ghost_mass_ratio * m;
+  const Real self = m * kern_.w_poly6(0);
+  const Index* nbr = nbrs_.items.data();
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 xi = x[i];
+    Real sum = 0;
+    for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q)
+      sum += kern_.w_poly6((xi - x[nbr[q]]).squaredNorm());
+    Real r = self + m * sum;
+    if constexpr ((F & kWalls) != 0) {
+      Real g = 0;
+      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q)
+        g += kern_.w_poly6(ghosts_.items[q].squaredNorm());
+      r += m_ghost * g;
+    }
+    rho[i] = r;
+    p[i] = k * (r - rho0);
+  }
+}
+
+// Pressure (seed eq. 14), viscosity (17) and colour-field surface tension
+// (18-20) as force densities; a = f / rho + g. Wall ghosts add pressure and
+// viscosity only. A ghost has the density rho0 * ghost_density_ratio and mirrors
+// the particle's pressure, clipped at zero so that walls push but never pull.
+template <unsigned F>
+void Solver::compute_accelerations() {
+  const Index n = size();
+  const Vec2* x = ps_.x.data();
+  const Vec2* v = ps_.v.data();
+  const Real* rho = ps_.rho.data();
+  const Real* p = ps_.p.data();
+  Vec2* a = ps_.a.data();
+  [[maybe_unused]] const Real m = params_.mass, eta = params_.eta, sigma = params_.sigma;
+  [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * m;
+  [[maybe_unused]] const Real rho_ghost = params_.ghost_density_ratio * params_.rho0;
+  [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
+  [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
+  const Vec2 g = params_.gravity;
+  const Index* nbr = nbrs_.items.data();
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 xi = x[i];
+    const Real pi = p[i], rhoi = rho[i];
+    Vec2 f = Vec2::Zero();
+    [[maybe_unused]] Vec2 vi = v[i];
+    [[maybe_unused]] Vec2 normal = Vec2::Zero();  // n_i = grad c_i   (eq. 18)
+    [[maybe_unused]] Real lap_c = 0;              // lap c_i
+    if constexpr ((F & kSurfaceTension) != 0) lap_c = m / rhoi * lap_self;
+    for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
+      const Index j = nbr[q];
+      const Vec2 r = xi - x[j];
+      const Real r2 = r.squaredNorm();
+      const Real rl = std::sqrt(r2);
+      const Real inv_rho_j = 1 / rho[j];
+      f -= (m * (pi + p[j]) * Real(0.5) * inv_rho_j) * kern_.grad_spiky(r, rl);
+      if constexpr ((F & kViscosity) != 0)
+        f += (eta * m * inv_rho_j * kern_.lap_visc(rl)) * (v[j] - vi);
+      if constexpr ((F & kSurfaceTension) != 0) {
+        const Real vol = m * inv_rho_j;
+        normal += vol * kern_.grad_poly6(r, r2);
+        lap_c += vol * kern_.lap_poly6(r2);
+      }
+    }
+    if constexpr ((F & kWalls) != 0) {
+      const Real p_ghost = std::max(pi, Real(0));
+      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q) {
+        const Vec2& r = ghosts_.items[q];
+        const Real rl = r.norm();
+        f -= (m_ghost * (pi + p_ghost) * Real(0.5) / rho_ghost) * kern_.grad_spiky(r, rl);
+        if constexpr ((F & kViscosity) != 0)
+          f -= (eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
+      }
+    }
+    if constexpr ((F & kSurfaceTension) != 0) {
+      const Real norm = normal.norm();
+      if (norm > threshold) f -= (sigma * lap_c / norm) * normal;  // eq. 20
+    }
+    a[i] = f / rhoi + g;
+  }
+}
+
+// Semi-implicit Euler, then the wall collision of the same particle (4.2).
+template <unsigned F>
+void Solver::integrate(Real dt) {
+  const Index n = size();
+  Vec2* x = ps_.x.data();
+  Vec2* v = ps_.v.data();
+  const Vec2* a = ps_.a.data();
+  [[maybe_unused]] const Real e = params_.restitution;
+  bool bad = false;
+#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 x_old = x[i];
+    Vec2 vi = v[i] + dt * a[i];
+    Vec2 xi = x_old + dt * vi;
+    if (!(xi.allFinite() && vi.allFinite())) {
+      bad = true;  // leave the particle at its last finite state; reported below
+      continue;
+    }
+    if constexpr ((F & kWalls) != 0) walls_.collide(x_old, xi, vi, e);
+    x[i] = xi;
+    v[i] = vi;
+  }
+  if (!bad) return;
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 vi = v[i] + dt * a[i];
+    const Vec2 xi = x[i] + dt * vi;
+    if (xi.allFinite() && vi.allFinite()) continue;
+    std::ostringstream s;
+    s.precision(6);
+    s << "step " << step_count_ + 1 << " (t = " << time_ + dt << " s): particle id "
+      << ps_.id[i] << " got a non-finite velocity or position (acceleration "
+      << fmt(a[i]) << " m/s^2, density " << ps_.rho[i] << " kg/m^3, pressure " << ps_.p[i]
+      << " Pa, position " << fmt(x[i]) << ", velocity " << fmt(v[i]) << ")";
+    throw InstabilityError(s.str());
+  }
+}
+
+void Solver::remove_outside_domain() {
+  const Index n = size();
+  const Vec2* x = ps_.x.data();
+  const Vec2 lo = params_.domain_min, hi = params_.domain_max;
+  auto inside = [&](const Vec2& p) { return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all(); };
+  Index first_out = -1;
+  for (Index i = 0; i < n && first_out < 0; ++i)
+    if (!inside(x[i])) first_out = i;
+  if (first_out < 0) return;
+  keep_.assign(n, 1);
+  Index removed = 0;
+  for (Index i = first_out; i < n; ++i)
+    if (!inside(x[i])) {
+      keep_[i] = 0;
+      ++removed;
+    }
+  ps_.compact(keep_);
+  removed_ += removed;
+}
+
+}  // namespace sphfluid

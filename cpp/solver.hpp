@@ -1,0 +1,90 @@
+// Solver: owns the particles, the cell grid and the walls, and advances them with
+// the seed method (SPEC.md) as ordered phases: sort + neighbours, density,
+// forces, integration + wall collision, domain removal. The step is compiled once
+// per combination of optional terms (Feature flags) and chosen at construction.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "grid.hpp"
+#include "kernels.hpp"
+#include "params.hpp"
+#include "particles.hpp"
+#include "walls.hpp"
+
+namespace sphfluid {
+
+// Numerical blow-up detected during a step (arrives in Python as
+// sphfluid.InstabilityError, a RuntimeError).
+class InstabilityError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Solver {
+ public:
+  // positions, velocities: n entries each; ids: n entries or empty (0..n-1).
+  Solver(const SimParams& params, std::vector<Vec2> positions, std::vector<Vec2> velocities,
+         std::vector<Id> ids, std::vector<Segment> walls);
+
+  // Advance n steps of size dt (seed 4.3).
+  void step(Real dt, int n = 1);
+  // Density, pressure and acceleration for the current state; nothing moves
+  // (storage may be re-ordered, as in every step).
+  void compute_forces();
+  // Replace all particles; ids empty gives 0..n-1.
+  void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
+
+  const SimParams& params() const { return params_; }
+  const ParticleSet& particles() const { return ps_; }
+  const WallSet& walls() const { return walls_; }
+  unsigned features() const { return features_; }
+  Index size() const { return ps_.size(); }
+  Real time() const { return time_; }
+  std::int64_t step_count() const { return step_count_; }
+  std::int64_t removed() const { return removed_; }
+  int threads() const { return threads_; }
+  void set_threads(int threads);
+  // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
+  std::int64_t neighbour_pairs() const {
+    return nbrs_.start.empty() ? 0 : nbrs_.start.back();
+  }
+
+ private:
+  template <unsigned F> void step_impl(Real dt);
+  template <unsigned F> void evaluate_impl();
+  template <unsigned F> void compute_density();
+  template <unsigned F> void compute_accelerations();
+  template <unsigned F> void integrate(Real dt);
+  void sort_and_find_neighbours();
+  void remove_outside_domain();
+  void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
+                   const std::vector<Id>& ids) const;
+
+  using StepFn = void (Solver::*)(Real);
+  using EvalFn = void (Solver::*)();
+
+  SimParams params_;
+  Kernels kern_;
+  WallSet walls_;
+  unsigned features_ = 0;
+  StepFn step_fn_ = nullptr;
+  EvalFn eval_fn_ = nullptr;
+  int threads_ = 1;
+
+  ParticleSet ps_;
+  CellGrid grid_;
+  std::vector<Index> order_;
+  Csr<Index> nbrs_;
+  Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
+  std::vector<char> keep_;    // scratch for domain removal
+  std::vector<char> bad_;     // per thread: a non-finite value was produced
+
+  Real time_ = 0;
+  std::int64_t step_count_ = 0;
+  std::int64_t removed_ = 0;
+};
+
+}  // namespace sphfluid

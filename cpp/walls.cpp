@@ -1,0 +1,201 @@
+// Wall geometry: segment construction, projection, path intersection, the
+// segment lookup grid, ghost ownership at shared end points, and reflection.
+#include "walls.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace sphfluid {
+
+namespace {
+Real cross(const Vec2& u, const Vec2& w) { return u.x() * w.y() - u.y() * w.x(); }
+constexpr int kMaxBounces = 8;
+}  // namespace
+
+Segment make_segment(const Vec2& a, const Vec2& b) {
+  if (!a.allFinite() || !b.allFinite()) throw std::invalid_argument("wall end point is not finite");
+  const Vec2 d = b - a;
+  const Real len = d.norm();
+  if (!(len > 0)) throw std::invalid_argument("wall segment has zero length");
+  Segment s;
+  s.a = a;
+  s.b = b;
+  s.len = len;
+  s.t = d / len;
+  s.n = Vec2(-s.t.y(), s.t.x());
+  return s;
+}
+
+Vec2 closest_point(const Segment& s, const Vec2& p, Real& t) {
+  t = (p - s.a).dot(s.t) / s.len;
+  if (t <= 0) return s.a;
+  if (t >= 1) return s.b;
+  return s.a + (t * s.len) * s.t;
+}
+
+Real path_hit(const Segment& s, const Vec2& p0, const Vec2& p1) {
+  const Vec2 d = p1 - p0;
+  const Vec2 e = s.b - s.a;
+  const Real denom = cross(d, e);
+  if (denom == 0) return -1;
+  const Vec2 w = s.a - p0;
+  const Real sp = cross(w, e) / denom;  // along the path
+  const Real u = cross(w, d) / denom;   // along the segment
+  if (sp < 0 || sp > 1 || u < 0 || u > 1) return -1;
+  return sp;
+}
+
+WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(segments)) {
+  h2_ = h * h;
+  eps_ = 1e-6 * h;
+  const Index ns = static_cast<Index>(segments_.size());
+  if (ns == 0) return;
+
+  const Real tol2 = (1e-9 * h) * (1e-9 * h);
+  auto same = [&](const Vec2& p, const Vec2& q) { return (p - q).squaredNorm() <= tol2; };
+  for (Index i = 0; i < ns; ++i) {
+    for (Index j = 0; j < ns; ++j) {
+      if (i == j) continue;
+      Segment& s = segments_[i];
+      const Segment& o = segments_[j];
+      if (s.shared_a < 0 && (same(s.a, o.a) || same(s.a, o.b))) s.shared_a = j;
+      if (s.shared_b < 0 && (same(s.b, o.a) || same(s.b, o.b))) s.shared_b = j;
+    }
+  }
+
+  Vec2 lo = segments_[0].a, hi = lo;
+  for (const Segment& s : segments_) {
+    lo = lo.cwiseMin(s.a).cwiseMin(s.b);
+    hi = hi.cwiseMax(s.a).cwiseMax(s.b);
+  }
+  lo.array() -= h;
+  hi.array() += h;
+  // Cells of size h, coarsened if that would make more than ~4M cells.
+  Real cell = h;
+  const Real area_cells = (hi.x() - lo.x()) * (hi.y() - lo.y()) / (cell * cell);
+  if (area_cells > 4.0e6) cell *= std::sqrt(area_cells / 4.0e6);
+  inv_cell_ = 1 / cell;
+  origin_ = lo;
+  nx_ = static_cast<Index>(std::floor((hi.x() - lo.x()) * inv_cell_)) + 1;
+  ny_ = static_cast<Index>(std::floor((hi.y() - lo.y()) * inv_cell_)) + 1;
+
+  // A segment goes into every cell whose centre lies within h + half a cell
+  // diagonal of it: then any point of the cell within h of it finds it.
+  const Real reach = h + 0.5 * std::sqrt(2.0) * cell;
+  std::vector<std::vector<Index>> lists(static_cast<std::size_t>(nx_) * ny_);
+  for (Index si = 0; si < ns; ++si) {
+    const Segment& s = segments_[si];
+    const Vec2 slo = s.a.cwiseMin(s.b).array() - reach;
+    const Vec2 shi = s.a.cwiseMax(s.b).array() + reach;
+    const Index x0 = std::max<Index>(0, static_cast<Index>((slo.x() - lo.x()) * inv_cell_));
+    const Index y0 = std::max<Index>(0, static_cast<Index>((slo.y() - lo.y()) * inv_cell_));
+    const Index x1 = std::min<Index>(nx_ - 1, static_cast<Index>((shi.x() - lo.x()) * inv_cell_));
+    const Index y1 = std::min<Index>(ny_ - 1, static_cast<Index>((shi.y() - lo.y()) * inv_cell_));
+    for (Index iy = y0; iy <= y1; ++iy)
+      for (Index ix = x0; ix <= x1; ++ix) {
+        const Vec2 centre = lo + Vec2((ix + 0.5) * cell, (iy + 0.5) * cell);
+        Real t;
+        if ((centre - closest_point(s, centre, t)).norm() <= reach)
+          lists[static_cast<std::size_t>(iy) * nx_ + ix].push_back(si);
+      }
+  }
+  cell_start_.assign(lists.size() + 1, 0);
+  for (std::size_t c = 0; c < lists.size(); ++c)
+    cell_start_[c + 1] = cell_start_[c] + static_cast<Index>(lists[c].size());
+  cell_items_.reserve(cell_start_.back());
+  for (const auto& l : lists) cell_items_.insert(cell_items_.end(), l.begin(), l.end());
+}
+
+Index WallSet::cell_of(const Vec2& p) const {
+  const Real fx = (p.x() - origin_.x()) * inv_cell_, fy = (p.y() - origin_.y()) * inv_cell_;
+  if (!(fx >= 0 && fy >= 0 && fx < nx_ && fy < ny_)) return -1;
+  return static_cast<Index>(fy) * nx_ + static_cast<Index>(fx);
+}
+
+// A ghost clamped to an end point shared with segment `other` is counted once:
+// not at all if p projects into the interior of `other` (that segment supplies
+// the ghost), otherwise by the lower-numbered of the two segments.
+bool WallSet::owns_end_point(Index si, Index other, const Vec2& p) const {
+  if (other < 0) return true;
+  Real t;
+  closest_point(segments_[other], p, t);
+  if (t > 0 && t < 1) return false;
+  return si < other;
+}
+
+Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, const Index* skip, int n_skip,
+                         Real& s_hit) const {
+  Index best = -1;
+  s_hit = 2;
+  auto consider = [&](Index si) {
+    for (int k = 0; k < n_skip; ++k)
+      if (skip[k] == si) return;
+    const Real s = path_hit(segments_[si], p0, p1);
+    if (s >= 0 && s < s_hit) {
+      s_hit = s;
+      best = si;
+    }
+  };
+  // Cells along the path's bounding box; a long path scans every segment.
+  const Vec2 lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
+  const Real fx0 = (lo.x() - origin_.x()) * inv_cell_, fy0 = (lo.y() - origin_.y()) * inv_cell_;
+  const Real fx1 = (hi.x() - origin_.x()) * inv_cell_, fy1 = (hi.y() - origin_.y()) * inv_cell_;
+  if (fx1 < 0 || fy1 < 0 || fx0 >= nx_ || fy0 >= ny_) return -1;  // far from every wall
+  const Index x0 = std::max<Index>(0, static_cast<Index>(fx0));
+  const Index y0 = std::max<Index>(0, static_cast<Index>(fy0));
+  const Index x1 = std::min<Index>(nx_ - 1, static_cast<Index>(fx1));
+  const Index y1 = std::min<Index>(ny_ - 1, static_cast<Index>(fy1));
+  if (std::int64_t(x1 - x0 + 1) * (y1 - y0 + 1) > 16) {
+    for (Index si = 0; si < static_cast<Index>(segments_.size()); ++si) consider(si);
+    return best;
+  }
+  for (Index iy = y0; iy <= y1; ++iy)
+    for (Index ix = x0; ix <= x1; ++ix) {
+      const Index c = iy * nx_ + ix;
+      for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) consider(cell_items_[q]);
+    }
+  return best;
+}
+
+void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const {
+  Vec2 p0 = x_old, p1 = x_new;
+  Index bounced[kMaxBounces];
+  int n_bounced = 0;
+  Real s;
+  while (true) {
+    const bool may_bounce = n_bounced < kMaxBounces;
+    // Walls already bounced off this step are not bounced off again (seed 4.2);
+    // they are still obstacles, handled below by stopping in front of them.
+    const Index si = may_bounce ? first_hit(p0, p1, bounced, n_bounced, s) : -1;
+    const Index any = first_hit(p0, p1, nullptr, 0, s);
+    if (any < 0) break;  // the rest of the path is free
+    const Index hit_wall = si >= 0 && si == any ? si : any;
+    const Segment& w = segments_[hit_wall];
+    const Vec2 d = p1 - p0;
+    const Vec2 hit = p0 + s * d;
+    // Normal pointing back to the side the particle came from.
+    const Real side = (p0 - w.a).dot(w.n);
+    const Vec2 n = side > 0 ? w.n : side < 0 ? Vec2(-w.n) : (d.dot(w.n) > 0 ? Vec2(-w.n) : w.n);
+    if (si >= 0 && si == any) {
+      // Reflect the velocity and the rest of the path like a rubber ball.
+      const Real vn = v.dot(n);
+      if (vn < 0) v -= (1 + restitution) * vn * n;
+      Vec2 rest = p1 - hit;
+      const Real rn = rest.dot(n);
+      if (rn < 0) rest -= (1 + restitution) * rn * n;
+      p0 = hit + eps_ * n;
+      p1 = p0 + rest;
+      bounced[n_bounced++] = si;
+    } else {
+      // Out of bounces for this wall: stop in front of it, keep the tangential motion.
+      const Real vn = v.dot(n);
+      if (vn < 0) v -= vn * n;
+      p1 = hit + eps_ * n;
+      break;
+    }
+  }
+  x_new = p1;
+}
+
+}  // namespace sphfluid

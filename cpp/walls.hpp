@@ -1,0 +1,88 @@
+// Static wall segments and the two wall mechanisms of the seed (section 4):
+// ghost particles at the clamped foot of the perpendicular (4.1) and the repeated
+// reflection of a particle's path within one step (4.2). Pure geometry: no SPH here.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "types.hpp"
+
+namespace sphfluid {
+
+struct Segment {
+  Vec2 a, b;      // end points, m
+  Vec2 t;         // unit tangent a -> b
+  Vec2 n;         // unit normal (t rotated +90 degrees)
+  Real len;       // length, m
+  Index shared_a = -1;  // another segment that has end point a too, or -1
+  Index shared_b = -1;  // likewise for b
+};
+
+// Throws std::invalid_argument for a zero-length or non-finite segment.
+Segment make_segment(const Vec2& a, const Vec2& b);
+
+// Closest point of the segment to p; `t` receives the unclamped projection
+// parameter (0 at a, 1 at b).
+Vec2 closest_point(const Segment& s, const Vec2& p, Real& t);
+
+// Where the path p0 -> p1 meets the segment: the path parameter in [0, 1],
+// or a negative value if it does not (parallel paths never meet).
+Real path_hit(const Segment& s, const Vec2& p0, const Vec2& p1);
+
+class WallSet {
+ public:
+  WallSet() = default;
+  // Builds the lookup grid for ghosts of support h; finds shared end points.
+  WallSet(std::vector<Segment> segments, Real h);
+
+  bool empty() const { return segments_.empty(); }
+  const std::vector<Segment>& segments() const { return segments_; }
+
+  // Calls f(r_ig) for every ghost of a fluid particle at p, where r_ig = p - ghost
+  // and |r_ig| < h. A ghost sits at the foot of the perpendicular on each segment
+  // within h (seed 4.1). Where segments share an end point the particle gets one
+  // ghost there, not one per segment, so polylines have no doubled joints.
+  template <class F>
+  void for_each_ghost(const Vec2& p, F&& f) const {
+    const Index c = cell_of(p);
+    if (c < 0) return;
+    for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) {
+      const Index si = cell_items_[q];
+      const Segment& s = segments_[si];
+      Real t;
+      const Vec2 foot = closest_point(s, p, t);
+      const Vec2 r = p - foot;
+      if (r.squaredNorm() >= h2_) continue;
+      if (t <= 0 && !owns_end_point(si, s.shared_a, p)) continue;
+      if (t >= 1 && !owns_end_point(si, s.shared_b, p)) continue;
+      f(r);
+    }
+  }
+
+  // Moves a particle from x_old towards x_new (its velocity v already updated)
+  // and reflects it off every wall on its path, each wall at most once per step
+  // (seed 4.2); the normal velocity is scaled by -restitution at each bounce.
+  // If the path still crosses a wall after that, the particle stops just in
+  // front of it, so no path ever crosses a wall.
+  void collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
+
+ private:
+  Index cell_of(const Vec2& p) const;
+  bool owns_end_point(Index si, Index other, const Vec2& p) const;
+  // Earliest hit of p0 -> p1 among walls not in skip[0..n_skip); -1 if none.
+  Index first_hit(const Vec2& p0, const Vec2& p1, const Index* skip, int n_skip,
+                  Real& s_hit) const;
+
+  std::vector<Segment> segments_;
+  Real h2_ = 0;
+  Real eps_ = 0;  // stand-off from a wall after a bounce, m
+  // Lookup grid: each cell lists the segments that come within h of it.
+  Vec2 origin_{0, 0};
+  Real inv_cell_ = 1;
+  Index nx_ = 0, ny_ = 0;
+  std::vector<Index> cell_start_;
+  std::vector<Index> cell_items_;
+};
+
+}  // namespace sphfluid

@@ -1,0 +1,195 @@
+"""The `sphfluid` command: run | view | bench.
+
+Every user mistake ends in one clear message on stderr and a non-zero exit
+code: 2 for bad input (scene, arguments, files), 3 for a numerical blow-up.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+EXIT_BAD_INPUT = 2
+EXIT_UNSTABLE = 3
+
+
+def _positive(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (x > 0 and math.isfinite(x)):
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return x
+
+
+def _count(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return n
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
+    p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{run,view,bench}")
+
+    r = sub.add_parser("run", help="simulate a scene headless",
+                       description="Simulate a scene without a window and print a summary.")
+    r.add_argument("scene", help="scene JSON file")
+    r.add_argument("--duration", type=_positive, help="simulated seconds (default: the scene's)")
+    r.add_argument("--out", type=Path, help="write frames as .npz files into this folder")
+    r.add_argument("--every", type=_positive,
+                   help="simulated seconds between frames (default 1/30 s)")
+    r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    v = sub.add_parser("view", help="watch a scene in a window",
+                       description="Run a scene in a pygame window. Keys: space pause, "
+                                   "S or right arrow one step, R reset, Esc or Q quit.")
+    v.add_argument("scene", help="scene JSON file")
+    v.add_argument("--frames", type=_count, help="close after this many frames")
+    v.add_argument("--screenshot", type=Path, help="save the last frame as a PNG")
+    v.add_argument("--steps-per-frame", type=_count, default=None,
+                   help="native steps per drawn frame (default: real time at 60 fps)")
+    v.add_argument("--size", default="1000x700", help="window size WxH in pixels")
+    v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+
+    b = sub.add_parser("bench", help="time the dam break at ~10k particles",
+                       description="Dam break, fixed dt, 1 and 2 threads; prints steps/s and "
+                                   "particle-steps/s and can write BENCHMARKS.md.")
+    b.add_argument("--particles", type=_count, default=10_000)
+    b.add_argument("--steps", type=_count, default=1000)
+    b.add_argument("--warmup", type=_count, default=100)
+    b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
+    b.add_argument("--write", type=Path, help="append the table to this Markdown file")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from .scene import SceneError
+    from .simulation import InstabilityError
+
+    try:
+        if args.command == "run":
+            return _run(args)
+        if args.command == "view":
+            return _view(args)
+        if args.command == "bench":
+            from .bench import main as bench_main
+
+            return bench_main(args)
+    except SceneError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except InstabilityError as e:
+        print(f"error: the simulation became unstable: {e}", file=sys.stderr)
+        return EXIT_UNSTABLE
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _run(args) -> int:
+    from .scene import load_scene
+    from .simulation import Simulation, _ProgressBar
+
+    scene = load_scene(args.scene)
+    duration = args.duration if args.duration is not None else scene.duration
+    if duration is None:
+        print(f"error: {args.scene}: the scene has no 'duration'; pass --duration T",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if args.every is not None and args.out is None:
+        print("error: --every needs --out DIR", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if args.out is not None:
+        try:
+            args.out.mkdir(parents=True, exist_ok=True)
+            (args.out / "scene.json").write_text(json.dumps(scene.to_dict(), indent=2))
+        except OSError as e:
+            print(f"error: cannot write to {args.out}: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    sim = Simulation(scene, threads=args.threads)
+    dt = scene.time_step
+    total = int(math.ceil(duration / dt - 1e-9))
+    every = args.every if args.every is not None else 1.0 / 30.0
+    frame_steps = max(1, int(round(every / dt))) if args.out else None
+    sample = max(1, min(100, total))
+    print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
+          f"{len(scene.walls)} walls, method {scene.method}, dt {dt:g} s, {total:,} steps "
+          f"to t = {duration:g} s, {sim.threads} thread(s)", file=sys.stderr)
+    bar = None if args.quiet else _ProgressBar(total)
+    frames = 0
+    max_err = 0.0
+    particle_steps = 0
+    start = time.perf_counter()
+
+    def write_frame() -> None:
+        nonlocal frames
+        np.savez(args.out / f"frame_{frames:05d}.npz", time=sim.time, positions=sim.positions,
+                 velocities=sim.velocities, densities=sim.densities, pressures=sim.pressures,
+                 ids=sim.ids)
+        frames += 1
+
+    if args.out:
+        write_frame()
+    done = 0
+    while done < total:
+        n = min(sample, total - done)
+        if frame_steps:
+            n = min(n, frame_steps - done % frame_steps)
+        particle_steps += n * sim.n_particles
+        sim.step(n)
+        done += n
+        max_err = max(max_err, sim.stats()["max_density_error"])
+        if frame_steps and done % frame_steps == 0:
+            write_frame()
+        if bar:
+            bar.update(done, sim)
+    if bar:
+        bar.close()
+    wall = time.perf_counter() - start
+    st = sim.stats()
+    print(f"steps               {done:,}")
+    print(f"simulated time      {sim.time:.4f} s")
+    print(f"wall time           {wall:.2f} s")
+    print(f"steps/s             {done / max(wall, 1e-9):,.0f}")
+    print(f"particle-steps/s    {particle_steps / max(wall, 1e-9):,.0f}")
+    print(f"particles           {sim.n_particles:,}")
+    print(f"removed particles   {sim.removed_particles:,} (left the domain)")
+    print(f"max density error   {max_err:.4f} (max |rho/rho0 - 1|, sampled every "
+          f"{sample} steps)")
+    print(f"max speed           {st['max_speed']:.3f} m/s at the end")
+    if args.out:
+        print(f"frames              {frames} in {args.out}{os.sep}")
+    return 0
+
+
+def _view(args) -> int:
+    from .viewer import view
+
+    try:
+        w, h = (int(x) for x in args.size.lower().split("x"))
+        if w < 100 or h < 100:
+            raise ValueError
+    except ValueError:
+        print(f"error: --size: expected WxH of at least 100x100 pixels, got {args.size!r}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return view(args.scene, frames=args.frames, screenshot=args.screenshot,
+                steps_per_frame=args.steps_per_frame, size=(w, h), threads=args.threads)

@@ -1,0 +1,248 @@
+"""Simulation: a Scene mapped onto the native solver, with numpy views of its state.
+
+Adds no physics: every equation lives in the C++ core (``sphfluid._core``).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time as _time
+from typing import Callable
+
+import numpy as np
+
+from . import _core
+from .scene import Scene, load_scene
+
+InstabilityError = _core.InstabilityError
+
+
+def _params(scene: Scene, threads: int | None) -> _core.SimParams:
+    p = _core.SimParams()
+    p.h = scene.smoothing_length
+    p.rho0 = scene.rest_density
+    p.mass = (scene.particle_mass if scene.particle_mass is not None
+              else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
+                                              scene.smoothing_length))
+    p.k = scene.gas_constant
+    p.eta = scene.viscosity
+    p.sigma = scene.surface_tension
+    p.gravity = scene.gravity
+    p.domain_min = scene.domain_min
+    p.domain_max = scene.domain_max
+    p.restitution = scene.wall_restitution
+    p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
+    p.threads = 0 if threads is None else int(threads)
+    return p
+
+
+def _wall_array(scene: Scene) -> np.ndarray:
+    if not scene.walls:
+        return np.zeros((0, 2, 2))
+    return np.asarray(scene.walls, dtype=float).reshape(-1, 2, 2)
+
+
+class Simulation:
+    """A running simulation of a scene with the scene's method (``seed``: SPEC.md).
+
+    The array properties (``positions``, ``velocities``, ``accelerations``,
+    ``densities``, ``pressures``, ``ids``) are read-only numpy views of native
+    memory, created on each access. Storage is re-sorted by grid cell every step,
+    so a view shows the state at the time it was taken and is not updated by
+    later steps: read the property again after stepping, and use ``ids`` to
+    follow particles. ``copy()`` a view to modify it.
+    """
+
+    def __init__(self, scene: Scene | dict | str, *, threads: int | None = None):
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        if threads is not None and threads < 0:
+            raise ValueError(f"threads must be >= 0, got {threads}")
+        self.scene = scene
+        self._threads = threads
+        self.reset()
+
+    def reset(self) -> None:
+        """Start again from the scene's initial particles at t = 0."""
+        pos, vel = self.scene.lattice_points()
+        self._solver = _core.Solver(_params(self.scene, self._threads), pos, vel,
+                                    _wall_array(self.scene))
+        self._initial_count = len(pos)
+
+    # -- stepping
+    @property
+    def dt(self) -> float:
+        """The time step, s."""
+        return self.scene.time_step
+
+    def step(self, n: int = 1) -> None:
+        """Advance n native steps (the GIL is released while they run).
+
+        Raises InstabilityError, naming the step, the particle and the numbers,
+        when a step produces non-finite values.
+        """
+        if n < 0:
+            raise ValueError(f"n must be >= 0, got {n}")
+        self._solver.step(self.dt, int(n))
+
+    def run(self, duration: float | None = None, progress: bool = False,
+            callback: Callable[[Simulation], None] | None = None,
+            every: float | None = None) -> None:
+        """Advance by ``duration`` seconds (default: the scene's ``duration``).
+
+        progress: draw a progress bar on stderr. callback(sim) is called every
+        ``every`` seconds of simulated time (and at the end) when given.
+        """
+        if duration is None:
+            duration = self.scene.duration
+        if duration is None:
+            raise ValueError("no duration given and the scene has no 'duration'")
+        if duration < 0:
+            raise ValueError(f"duration must be >= 0, got {duration}")
+        total = int(math.ceil(duration / self.dt - 1e-9))
+        chunk = max(1, int(round(every / self.dt))) if every else max(1, min(total, 100))
+        bar = _ProgressBar(total) if progress else None
+        done = 0
+        while done < total:
+            n = min(chunk, total - done)
+            self.step(n)
+            done += n
+            if bar:
+                bar.update(done, self)
+            if callback and every:
+                callback(self)
+        if bar:
+            bar.close()
+
+    def compute_forces(self) -> None:
+        """Density, pressure and acceleration for the current state; nothing moves."""
+        self._solver.compute_forces()
+
+    def set_state(self, positions, velocities, ids=None) -> None:
+        """Replace all particles (N may change). ids default to 0..N-1."""
+        self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float),
+                               None if ids is None else np.asarray(ids, np.int64))
+
+    # -- state
+    @property
+    def time(self) -> float:
+        """Simulated time, s."""
+        return self._solver.time
+
+    @property
+    def step_count(self) -> int:
+        return self._solver.step_count
+
+    @property
+    def n_particles(self) -> int:
+        return self._solver.n_particles
+
+    @property
+    def particle_mass(self) -> float:
+        """kg per metre of depth."""
+        return self._solver.params.mass
+
+    @property
+    def smoothing_length(self) -> float:
+        """Kernel support h, m."""
+        return self._solver.params.h
+
+    @property
+    def threads(self) -> int:
+        return self._solver.threads
+
+    @threads.setter
+    def threads(self, n: int) -> None:
+        self._solver.threads = int(n)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 2) read-only view, m."""
+        return self._solver.positions
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 2) read-only view, m/s."""
+        return self._solver.velocities
+
+    @property
+    def accelerations(self) -> np.ndarray:
+        """(N, 2) read-only view of the last force evaluation, m/s^2."""
+        return self._solver.accelerations
+
+    @property
+    def densities(self) -> np.ndarray:
+        """(N,) read-only view of the last evaluation, kg/m^3."""
+        return self._solver.densities
+
+    @property
+    def pressures(self) -> np.ndarray:
+        """(N,) read-only view of the last evaluation, Pa."""
+        return self._solver.pressures
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(N,) stable particle ids (storage order changes every step)."""
+        return self._solver.ids
+
+    @property
+    def walls(self) -> np.ndarray:
+        """(S, 2, 2) copy of the wall segments, m."""
+        return self._solver.walls
+
+    @property
+    def removed_particles(self) -> int:
+        """Particles removed for leaving the domain."""
+        return self._solver.removed_particles
+
+    def stats(self) -> dict:
+        """Summary numbers of the current state (SI units)."""
+        v = self.velocities
+        rho = self.densities
+        speed2 = (v * v).sum(axis=1) if len(v) else np.zeros(0)
+        rho0 = self.scene.rest_density
+        err = np.abs(rho / rho0 - 1.0) if len(rho) else np.zeros(0)
+        return {
+            "time": self.time,
+            "step_count": self.step_count,
+            "dt": self.dt,
+            "method": self.scene.method,
+            "n_particles": self.n_particles,
+            "removed_particles": self.removed_particles,
+            "kinetic_energy": 0.5 * self.particle_mass * float(speed2.sum()),  # J per m depth
+            "max_speed": float(math.sqrt(speed2.max())) if len(v) else 0.0,
+            "max_density_error": float(err.max()) if len(err) else 0.0,
+            "mean_density_error": float(err.mean()) if len(err) else 0.0,
+            "neighbour_pairs": self._solver.neighbour_pairs,
+        }
+
+
+class _ProgressBar:
+    """A one-line progress bar on stderr, redrawn at most ten times a second."""
+
+    def __init__(self, total: int):
+        self.total = max(total, 1)
+        self.start = _time.perf_counter()
+        self.last = 0.0
+        self.tty = sys.stderr.isatty()
+
+    def update(self, done: int, sim: Simulation) -> None:
+        now = _time.perf_counter()
+        if now - self.last < 0.1 and done < self.total:
+            return
+        if not self.tty and now - self.last < 5.0 and done < self.total:
+            return
+        self.last = now
+        frac = done / self.total
+        elapsed = now - self.start
+        eta = elapsed / frac - elapsed if frac > 0 else 0.0
+        bar = "#" * int(30 * frac)
+        line = (f"[{bar:<30}] {100 * frac:5.1f}%  t = {sim.time:.4f} s  "
+                f"{done / max(elapsed, 1e-9):,.0f} steps/s  eta {eta:5.1f} s")
+        sys.stderr.write(("\r" if self.tty else "") + line + ("" if self.tty else "\n"))
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
