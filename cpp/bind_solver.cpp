@@ -89,6 +89,15 @@ void bind_solver(py::module_& m) {
           "Replace all particles (n may change); ids default to 0..n-1.")
       .def_property("threads", &Solver::threads, &Solver::set_threads,
                     "OpenMP threads used by the step")
+      .def(
+          "phase_seconds",
+          [](const Solver& s) {
+            py::dict d;
+            for (int p = 0; p < kNumPhases; ++p) d[phase_name(p)] = s.phase_seconds()[p];
+            return d;
+          },
+          "Wall-clock seconds spent in each phase of the step since the last reset")
+      .def("reset_phase_seconds", &Solver::reset_phase_seconds)
       .def_property_readonly("params", &Solver::params)
       .def_property_readonly("n_particles", &Solver::size)
       .def_property_readonly("time", &Solver::time, "simulated time, s")

@@ -62,13 +62,23 @@ void CellGrid::neighbours(const Vec2* x, Index n, Real h, int threads, Csr<Index
     const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx_ - 1);
     const Index y0 = std::max<Index>(cy - 1, 0), y1 = std::min<Index>(cy + 1, ny_ - 1);
     const Vec2 xi = x[i];
+    // Branch-free: write every candidate, advance only for real neighbours.
+    Index candidates = 0;
+    for (Index yy = y0; yy <= y1; ++yy)
+      candidates += cell_start_[yy * nx_ + x1 + 1] - cell_start_[yy * nx_ + x0];
+    const std::size_t base = list.size();
+    list.resize(base + candidates);
+    Index* out = list.data() + base;
+    Index count = 0;
     for (Index yy = y0; yy <= y1; ++yy) {
       // Cells x0..x1 of one row are contiguous in the sorted storage.
       const Index j0 = cell_start_[yy * nx_ + x0], j1 = cell_start_[yy * nx_ + x1 + 1];
       for (Index j = j0; j < j1; ++j) {
-        if ((xi - x[j]).squaredNorm() < h2 && j != i) list.push_back(j);
+        out[count] = j;
+        count += static_cast<Index>(((xi - x[j]).squaredNorm() < h2) & (j != i));
       }
     }
+    list.resize(base + count);
   });
 }
 

@@ -64,7 +64,10 @@ void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
     const int t = thread_rank(), nt = thread_team_size();
     const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
     const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
-    std::vector<T>& local = csr.per_thread[t];
+    // Work on a vector whose header lives on this thread's stack: the headers
+    // in per_thread share cache lines, and push_back writes them constantly.
+    std::vector<T> local;
+    local.swap(csr.per_thread[t]);
     local.clear();
     for (Index i = lo; i < hi; ++i) {
       csr.start[i] = static_cast<Offset>(local.size());
@@ -80,6 +83,7 @@ void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
     const Offset off = base[t];
     for (Index i = lo; i < hi; ++i) csr.start[i] += off;
     std::copy(local.begin(), local.end(), csr.items.begin() + off);
+    local.swap(csr.per_thread[t]);  // keep the capacity for the next step
   }
   csr.start[n] = static_cast<Offset>(csr.items.size());
 }

@@ -110,13 +110,16 @@ template <unsigned F>
 void Solver::step_impl(Real dt) {
   evaluate_impl<F>();
   integrate<F>(dt);
+  mark(kIntegrate);
   remove_outside_domain();
+  mark(kDomain);
   time_ += dt;
   ++step_count_;
 }
 
 template <unsigned F>
 void Solver::evaluate_impl() {
+  mark_ = std::chrono::steady_clock::now();
   sort_and_find_neighbours();
   if constexpr ((F & kWalls) != 0) {
     // Wall ghosts of every particle, found once and reused by both passes.
@@ -124,16 +127,21 @@ void Solver::evaluate_impl() {
     build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, std::vector<Vec2>& out) {
       walls_.for_each_ghost(x[i], [&](const Vec2& r) { out.push_back(r); });
     });
+    mark(kGhosts);
   }
   compute_density<F>();
+  mark(kDensity);
   compute_accelerations<F>();
+  mark(kForces);
 }
 
 void Solver::sort_and_find_neighbours() {
   const Index n = size();
   grid_.sort(ps_.x.data(), n, params_.h, order_);
   ps_.permute_state(order_);
+  mark(kSort);
   grid_.neighbours(ps_.x.data(), n, params_.h, threads_, nbrs_);
+  mark(kNeighbours);
 }
 
 // Seed eq. 10 with the self term, plus the wall ghosts (4.1); EOS eq. 15.
@@ -143,6 +151,10 @@ void Solver::compute_density() {
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   Real* p = ps_.p.data();
+  inv_rho_.resize(n);
+  p_over_rho_.resize(n);
+  Real* inv_rho = inv_rho_.data();
+  Real* p_over_rho = p_over_rho_.data();
   const Real m = params_.mass, k = params_.k, rho0 = params_.rho0;
   const Real m_ghost = params_.ghost_mass_ratio * m;
   const Real self = m * kern_.w_poly6(0);
@@ -162,6 +174,8 @@ void Solver::compute_density() {
     }
     rho[i] = r;
     p[i] = k * (r - rho0);
+    inv_rho[i] = 1 / r;
+    p_over_rho[i] = p[i] * inv_rho[i];
   }
 }
 
@@ -176,6 +190,8 @@ void Solver::compute_accelerations() {
   const Vec2* v = ps_.v.data();
   const Real* rho = ps_.rho.data();
   const Real* p = ps_.p.data();
+  const Real* inv_rho = inv_rho_.data();
+  const Real* p_over_rho = p_over_rho_.data();
   Vec2* a = ps_.a.data();
   [[maybe_unused]] const Real m = params_.mass, eta = params_.eta, sigma = params_.sigma;
   [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * m;
@@ -198,8 +214,9 @@ void Solver::compute_accelerations() {
       const Vec2 r = xi - x[j];
       const Real r2 = r.squaredNorm();
       const Real rl = std::sqrt(r2);
-      const Real inv_rho_j = 1 / rho[j];
-      f -= (m * (pi + p[j]) * Real(0.5) * inv_rho_j) * kern_.grad_spiky(r, rl);
+      const Real inv_rho_j = inv_rho[j];
+      // m (p_i + p_j) / (2 rho_j), with p_j / rho_j stored by the density pass
+      f -= (Real(0.5) * m * (pi * inv_rho_j + p_over_rho[j])) * kern_.grad_spiky(r, rl);
       if constexpr ((F & kViscosity) != 0)
         f += (eta * m * inv_rho_j * kern_.lap_visc(rl)) * (v[j] - vi);
       if constexpr ((F & kSurfaceTension) != 0) {

@@ -4,6 +4,8 @@
 // per combination of optional terms (Feature flags) and chosen at construction.
 #pragma once
 
+#include <array>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -22,6 +24,14 @@ class InstabilityError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// Wall-clock seconds spent in each phase of the step, summed over steps.
+enum Phase : int { kSort, kNeighbours, kGhosts, kDensity, kForces, kIntegrate, kDomain, kNumPhases };
+inline const char* phase_name(int p) {
+  static const char* names[kNumPhases] = {"sort",   "neighbours", "ghosts", "density",
+                                          "forces", "integrate",  "domain"};
+  return names[p];
+}
 
 class Solver {
  public:
@@ -47,6 +57,8 @@ class Solver {
   std::int64_t removed() const { return removed_; }
   int threads() const { return threads_; }
   void set_threads(int threads);
+  const std::array<double, kNumPhases>& phase_seconds() const { return phase_seconds_; }
+  void reset_phase_seconds() { phase_seconds_.fill(0.0); }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
   std::int64_t neighbour_pairs() const {
     return nbrs_.start.empty() ? 0 : nbrs_.start.back();
@@ -79,8 +91,19 @@ class Solver {
   std::vector<Index> order_;
   Csr<Index> nbrs_;
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
+  std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
+  std::vector<Real> p_over_rho_;  // p / rho, likewise: saves divisions per pair
   std::vector<char> keep_;    // scratch for domain removal
   std::vector<char> bad_;     // per thread: a non-finite value was produced
+
+  // Adds the time since the last mark to phase p (a few clock reads per step).
+  void mark(int p) {
+    const auto now = std::chrono::steady_clock::now();
+    phase_seconds_[p] += std::chrono::duration<double>(now - mark_).count();
+    mark_ = now;
+  }
+  std::array<double, kNumPhases> phase_seconds_{};
+  std::chrono::steady_clock::time_point mark_;
 
   Real time_ = 0;
   std::int64_t step_count_ = 0;

@@ -124,13 +124,10 @@ bool WallSet::owns_end_point(Index si, Index other, const Vec2& p) const {
   return si < other;
 }
 
-Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, const Index* skip, int n_skip,
-                         Real& s_hit) const {
+Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const {
   Index best = -1;
   s_hit = 2;
   auto consider = [&](Index si) {
-    for (int k = 0; k < n_skip; ++k)
-      if (skip[k] == si) return;
     const Real s = path_hit(segments_[si], p0, p1);
     if (s >= 0 && s < s_hit) {
       s_hit = s;
@@ -146,6 +143,11 @@ Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, const Index* skip, int 
   const Index y0 = std::max<Index>(0, static_cast<Index>(fy0));
   const Index x1 = std::min<Index>(nx_ - 1, static_cast<Index>(fx1));
   const Index y1 = std::min<Index>(ny_ - 1, static_cast<Index>(fy1));
+  if (x0 == x1 && y0 == y1) {  // the common case: a short path inside one cell
+    const Index c = y0 * nx_ + x0;
+    for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) consider(cell_items_[q]);
+    return best;
+  }
   if (std::int64_t(x1 - x0 + 1) * (y1 - y0 + 1) > 16) {
     for (Index si = 0; si < static_cast<Index>(segments_.size()); ++si) consider(si);
     return best;
@@ -163,37 +165,33 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
   Index bounced[kMaxBounces];
   int n_bounced = 0;
   Real s;
-  while (true) {
-    const bool may_bounce = n_bounced < kMaxBounces;
-    // Walls already bounced off this step are not bounced off again (seed 4.2);
-    // they are still obstacles, handled below by stopping in front of them.
-    const Index si = may_bounce ? first_hit(p0, p1, bounced, n_bounced, s) : -1;
-    const Index any = first_hit(p0, p1, nullptr, 0, s);
-    if (any < 0) break;  // the rest of the path is free
-    const Index hit_wall = si >= 0 && si == any ? si : any;
-    const Segment& w = segments_[hit_wall];
+  Index si;
+  while ((si = first_hit(p0, p1, s)) >= 0) {
+    const Segment& w = segments_[si];
     const Vec2 d = p1 - p0;
     const Vec2 hit = p0 + s * d;
     // Normal pointing back to the side the particle came from.
     const Real side = (p0 - w.a).dot(w.n);
     const Vec2 n = side > 0 ? w.n : side < 0 ? Vec2(-w.n) : (d.dot(w.n) > 0 ? Vec2(-w.n) : w.n);
-    if (si >= 0 && si == any) {
-      // Reflect the velocity and the rest of the path like a rubber ball.
-      const Real vn = v.dot(n);
-      if (vn < 0) v -= (1 + restitution) * vn * n;
-      Vec2 rest = p1 - hit;
-      const Real rn = rest.dot(n);
-      if (rn < 0) rest -= (1 + restitution) * rn * n;
-      p0 = hit + eps_ * n;
-      p1 = p0 + rest;
-      bounced[n_bounced++] = si;
-    } else {
-      // Out of bounces for this wall: stop in front of it, keep the tangential motion.
+    const bool again = std::find(bounced, bounced + n_bounced, si) != bounced + n_bounced;
+    if (again || n_bounced == kMaxBounces) {
+      // Each wall bounces a particle at most once per step (seed 4.2). If the
+      // rest of the path still meets one, the particle stops just in front of
+      // it, keeping only its tangential velocity: no path ever crosses a wall.
       const Real vn = v.dot(n);
       if (vn < 0) v -= vn * n;
       p1 = hit + eps_ * n;
       break;
     }
+    // Reflect the velocity and the rest of the path like a rubber ball.
+    const Real vn = v.dot(n);
+    if (vn < 0) v -= (1 + restitution) * vn * n;
+    Vec2 rest = p1 - hit;
+    const Real rn = rest.dot(n);
+    if (rn < 0) rest -= (1 + restitution) * rn * n;
+    p0 = hit + eps_ * n;
+    p1 = p0 + rest;
+    bounced[n_bounced++] = si;
   }
   x_new = p1;
 }

@@ -63,16 +63,15 @@ class WallSet {
   // Moves a particle from x_old towards x_new (its velocity v already updated)
   // and reflects it off every wall on its path, each wall at most once per step
   // (seed 4.2); the normal velocity is scaled by -restitution at each bounce.
-  // If the path still crosses a wall after that, the particle stops just in
-  // front of it, so no path ever crosses a wall.
+  // If the path meets a wall a second time, the particle stops just in front
+  // of it instead, so no path ever crosses a wall.
   void collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
 
  private:
   Index cell_of(const Vec2& p) const;
   bool owns_end_point(Index si, Index other, const Vec2& p) const;
-  // Earliest hit of p0 -> p1 among walls not in skip[0..n_skip); -1 if none.
-  Index first_hit(const Vec2& p0, const Vec2& p1, const Index* skip, int n_skip,
-                  Real& s_hit) const;
+  // The wall that the path p0 -> p1 meets first (and where, in s_hit); -1 if none.
+  Index first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const;
 
   std::vector<Segment> segments_;
   Real h2_ = 0;
