@@ -107,17 +107,18 @@ void bind_walls(py::module_& m) {
   }, py::arg("walls"), py::arg("point"), py::arg("h"),
      "Positions of the wall ghosts of a particle at point (seed 4.1)");
   m.def("collide", [](const InArray& walls, const InArray& x_old, const InArray& x_new,
-                      const InArray& v, double restitution) {
+                      const InArray& v, double restitution, double h) {
+    check_h(h);
     if (x_old.size() != 2 || x_new.size() != 2 || v.size() != 2)
       throw std::invalid_argument("x_old, x_new, v: expected [x, y]");
-    const WallSet set(bind::to_segments(walls), 1.0);
+    const WallSet set(bind::to_segments(walls), h);
     const Vec2 xo(x_old.data()[0], x_old.data()[1]);
     Vec2 xn(x_new.data()[0], x_new.data()[1]);
     Vec2 vv(v.data()[0], v.data()[1]);
     set.collide(xo, xn, vv, restitution);
     return py::make_tuple(py::make_tuple(xn.x(), xn.y()), py::make_tuple(vv.x(), vv.y()));
   }, py::arg("walls"), py::arg("x_old"), py::arg("x_new"), py::arg("v"),
-     py::arg("restitution") = 1.0,
+     py::arg("restitution") = 1.0, py::arg("h") = 1.0,
      "Move from x_old towards x_new with velocity v, reflecting off walls (seed 4.2); "
-     "returns (x, v)");
+     "returns (x, v). A bounce leaves the particle 1e-6 h in front of the wall.");
 }

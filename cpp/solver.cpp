@@ -15,12 +15,15 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument(what);
 }
 
-std::string fmt(const Vec2& u) {
+std::string fmt(Real x) {
+  if (std::isnan(x)) return "nan";  // not "-nan": the sign of a NaN means nothing
   std::ostringstream s;
   s.precision(6);
-  s << "(" << u.x() << ", " << u.y() << ")";
+  s << x;
   return s.str();
 }
+
+std::string fmt(const Vec2& u) { return "(" + fmt(u.x()) + ", " + fmt(u.y()) + ")"; }
 
 }  // namespace
 
@@ -270,13 +273,12 @@ void Solver::integrate(Real dt) {
     const Vec2 vi = v[i] + dt * a[i];
     const Vec2 xi = x[i] + dt * vi;
     if (xi.allFinite() && vi.allFinite()) continue;
-    std::ostringstream s;
-    s.precision(6);
-    s << "step " << step_count_ + 1 << " (t = " << time_ + dt << " s): particle id "
-      << ps_.id[i] << " got a non-finite velocity or position (acceleration "
-      << fmt(a[i]) << " m/s^2, density " << ps_.rho[i] << " kg/m^3, pressure " << ps_.p[i]
-      << " Pa, position " << fmt(x[i]) << ", velocity " << fmt(v[i]) << ")";
-    throw InstabilityError(s.str());
+    throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " +
+                           fmt(time_ + dt) + " s): particle id " + std::to_string(ps_.id[i]) +
+                           " got a non-finite velocity or position (acceleration " +
+                           fmt(a[i]) + " m/s^2, density " + fmt(ps_.rho[i]) +
+                           " kg/m^3, pressure " + fmt(ps_.p[i]) + " Pa, position " +
+                           fmt(x[i]) + ", velocity " + fmt(v[i]) + ")");
   }
 }
 

@@ -170,6 +170,10 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
     const Segment& w = segments_[si];
     const Vec2 d = p1 - p0;
     const Vec2 hit = p0 + s * d;
+    // Restart a little short of the hit point along the incoming path, which
+    // is free of walls up to the hit: a point offset along the normal could
+    // land across another wall where two walls meet.
+    const Vec2 safe = p0 + std::max(Real(0), s - eps_ / d.norm()) * d;
     // Normal pointing back to the side the particle came from.
     const Real side = (p0 - w.a).dot(w.n);
     const Vec2 n = side > 0 ? w.n : side < 0 ? Vec2(-w.n) : (d.dot(w.n) > 0 ? Vec2(-w.n) : w.n);
@@ -180,7 +184,7 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
       // it, keeping only its tangential velocity: no path ever crosses a wall.
       const Real vn = v.dot(n);
       if (vn < 0) v -= vn * n;
-      p1 = hit + eps_ * n;
+      p1 = safe;
       break;
     }
     // Reflect the velocity and the rest of the path like a rubber ball.
@@ -189,7 +193,7 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
     Vec2 rest = p1 - hit;
     const Real rn = rest.dot(n);
     if (rn < 0) rest -= (1 + restitution) * rn * n;
-    p0 = hit + eps_ * n;
+    p0 = safe;
     p1 = p0 + rest;
     bounced[n_bounced++] = si;
   }

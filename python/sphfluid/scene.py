@@ -279,7 +279,8 @@ class _Validator:
     def point(self, value: Any, path: str) -> Point | None:
         if (not isinstance(value, list) or len(value) != 2
                 or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value)):
-            self.fail(path, f"expected [x, y], got {json.dumps(value) if _jsonable(value) else value!r}")
+            shown = json.dumps(value) if _jsonable(value) else repr(value)
+            self.fail(path, f"expected [x, y], got {shown}")
             return None
         if not all(math.isfinite(c) for c in value):
             self.fail(path, f"must be finite, got {value!r}")
@@ -488,13 +489,13 @@ class _Validator:
         pts = [self.point(p, f"{path}[{i}]") for i, p in enumerate(raw)]
         if any(p is None for p in pts):
             return None
-        if abs(_polygon_signed_area(pts)) <= 0:
-            self.fail(path, "polygon has zero area")
-            return None
         crossing = _self_intersection(pts)
         if crossing:
             i, j = crossing
             self.fail(path, f"polygon is not simple: edge {i} crosses edge {j}")
+            return None
+        if abs(_polygon_signed_area(pts)) <= 0:
+            self.fail(path, "polygon has zero area")
             return None
         return pts
 

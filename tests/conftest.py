@@ -1,0 +1,32 @@
+"""Shared fixtures: paths, a small scene factory, and a brute-force reference."""
+from __future__ import annotations
+
+import copy
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = sorted((ROOT / "scenes").glob("*.json"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+BASE_SCENE = {
+    "format": "sphfluid-scene/1",
+    "name": "test box",
+    "gravity": [0.0, -9.81],
+    "domain": {"min": [-0.1, -0.1], "max": [1.1, 1.1]},
+    "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 0.5,
+              "surface_tension": 0.0},
+    "resolution": {"spacing": 0.05, "smoothing_length": 0.1},
+    "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.5, 0.5]}],
+    "walls": [{"polyline": [[0.0, 1.0], [0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]}],
+    "solver": {"method": "seed", "time_step": 0.001},
+    "duration": 0.05,
+}
+
+
+@pytest.fixture
+def scene_dict():
+    """A fresh copy of a small valid scene, to modify per test."""
+    return copy.deepcopy(BASE_SCENE)

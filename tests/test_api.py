@@ -1,0 +1,127 @@
+"""The Python API contract (issue: core engine): names, shapes, views, errors."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sphfluid
+from sphfluid import _core
+
+
+def test_public_names():
+    for name in ("load_scene", "Simulation", "SceneError", "InstabilityError", "__version__"):
+        assert hasattr(sphfluid, name)
+    assert issubclass(sphfluid.SceneError, ValueError)
+    assert issubclass(sphfluid.InstabilityError, RuntimeError)
+    assert isinstance(_core.has_openmp, bool)
+
+
+def test_simulation_state_and_stepping(scene_dict):
+    sim = sphfluid.Simulation(sphfluid.load_scene(scene_dict))
+    n = sim.n_particles
+    assert n == 100
+    assert sim.time == 0.0 and sim.step_count == 0
+    assert sim.smoothing_length == pytest.approx(0.1)
+    assert sim.particle_mass == pytest.approx(_core.kernels.lattice_mass(1000.0, 0.05, 0.1))
+    for name in ("positions", "velocities", "accelerations"):
+        assert getattr(sim, name).shape == (n, 2)
+    for name in ("densities", "pressures", "ids"):
+        assert getattr(sim, name).shape == (n,)
+    assert sorted(sim.ids) == list(range(n))
+    sim.step(5)
+    assert sim.step_count == 5 and sim.time == pytest.approx(0.005)
+    sim.run(0.01)
+    assert sim.step_count == 15
+    sim.run()  # the scene's duration, 0.05 s
+    assert sim.time == pytest.approx(0.065)
+    st = sim.stats()
+    for key in ("kinetic_energy", "max_density_error", "removed_particles", "max_speed",
+                "time", "step_count", "n_particles"):
+        assert key in st
+    assert st["kinetic_energy"] > 0
+
+
+def test_arrays_are_read_only_views_that_stay_valid(scene_dict):
+    sim = sphfluid.Simulation(scene_dict)
+    x = sim.positions
+    assert not x.flags.writeable and x.base is not None  # a view of native memory
+    with pytest.raises(ValueError):
+        x[0, 0] = 1.0
+    snapshot = x.copy()
+    sim.step(10)
+    # The old view still holds the old state (storage is re-sorted each step) and
+    # stays valid even after the particle count changes.
+    np.testing.assert_array_equal(x, snapshot)
+    sim.set_state(np.zeros((3, 2)) + 0.5, np.zeros((3, 2)))
+    np.testing.assert_array_equal(x, snapshot)
+    assert sim.positions.shape == (3, 2)
+
+
+def test_set_state_changes_particle_count_and_ids(scene_dict):
+    sim = sphfluid.Simulation(scene_dict)
+    pos = np.array([[0.2, 0.2], [0.25, 0.2], [0.3, 0.2]])
+    sim.set_state(pos, np.zeros_like(pos), ids=[7, 8, 9])
+    assert sim.n_particles == 3
+    assert sorted(sim.ids) == [7, 8, 9]
+    sim.set_state(pos[:2], np.zeros((2, 2)))
+    assert sorted(sim.ids) == [0, 1]
+
+
+def test_compute_forces_moves_nothing(scene_dict):
+    sim = sphfluid.Simulation(scene_dict)
+    sim.step(3)
+    order = np.argsort(sim.ids)
+    x = sim.positions[order].copy()
+    v = sim.velocities[order].copy()
+    sim.compute_forces()
+    order = np.argsort(sim.ids)
+    np.testing.assert_array_equal(sim.positions[order], x)
+    np.testing.assert_array_equal(sim.velocities[order], v)
+    assert sim.step_count == 3
+
+
+def test_particles_leaving_the_domain_are_removed_and_counted(scene_dict):
+    scene_dict["walls"] = []
+    scene_dict["domain"] = {"min": [-0.1, -0.5], "max": [1.1, 1.1]}
+    sim = sphfluid.Simulation(scene_dict)
+    n = sim.n_particles
+    sim.run(0.5)  # free fall, no floor: everything drops out of the domain
+    assert sim.removed_particles == n - sim.n_particles > 0
+
+
+@pytest.mark.parametrize("call,message", [
+    (lambda s: s.step(-1), "n must be >= 0"),
+    (lambda s: s.run(-1.0), "duration must be >= 0"),
+    (lambda s: s.set_state(np.zeros((3, 3)), np.zeros((3, 3))), r"positions: expected an array of shape \(n, 2\)"),
+    (lambda s: s.set_state(np.zeros((3, 2)), np.zeros((2, 2))), "positions and velocities differ in length"),
+    (lambda s: s.set_state(np.full((1, 2), np.nan), np.zeros((1, 2))), "position 0 is not finite"),
+])
+def test_bad_calls_raise_clear_errors(scene_dict, call, message):
+    sim = sphfluid.Simulation(scene_dict)
+    with pytest.raises(ValueError, match=message):
+        call(sim)
+
+
+def test_blow_up_raises_instability_error_naming_step_and_particle(scene_dict):
+    scene_dict["fluid"]["gas_constant"] = 1e306  # pressures overflow to inf
+    scene_dict["fluid"]["viscosity"] = 0.0
+    scene_dict["solver"]["time_step"] = 0.01
+    sim = sphfluid.Simulation(scene_dict)
+    with pytest.raises(sphfluid.InstabilityError, match=r"step \d+ \(t = .* s\): particle id \d+ "
+                       r"got a non-finite velocity or position"):
+        sim.run(5.0)
+
+
+def test_run_without_duration_is_an_error(scene_dict):
+    del scene_dict["duration"]
+    sim = sphfluid.Simulation(scene_dict)
+    with pytest.raises(ValueError, match="no duration"):
+        sim.run()
+
+
+def test_unused_terms_select_a_reduced_step(scene_dict):
+    scene_dict["fluid"]["viscosity"] = 0.0
+    scene_dict["walls"] = []
+    assert sphfluid.Simulation(scene_dict)._solver.features == 0
+    scene_dict["fluid"]["surface_tension"] = 1.0
+    assert sphfluid.Simulation(scene_dict)._solver.features == 2

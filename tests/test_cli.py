@@ -1,0 +1,121 @@
+"""The command line: run on every scene, clean failures, view headless."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import BASE_SCENE, SCENES
+
+from sphfluid.cli import main
+
+
+def sphfluid_cmd(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "sphfluid", *map(str, args)],
+                          capture_output=True, text=True, timeout=300, env=env)
+
+
+@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+def test_run_every_scene_briefly(path, capsys):
+    assert main(["run", str(path), "--duration", "0.01", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "particle-steps/s" in out and "max density error" in out
+    assert "removed particles   0" in out
+
+
+def test_run_writes_frames(tmp_path, capsys):
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    assert main(["run", str(scene), "--duration", "0.02", "--out", str(tmp_path / "out"),
+                 "--every", "0.005", "--quiet"]) == 0
+    frames = sorted((tmp_path / "out").glob("frame_*.npz"))
+    assert len(frames) == 5  # t = 0, 0.005, 0.01, 0.015, 0.02
+    last = np.load(frames[-1])
+    assert float(last["time"]) == pytest.approx(0.02)
+    assert last["positions"].shape == (100, 2) and last["ids"].shape == (100,)
+    assert json.loads((tmp_path / "out" / "scene.json").read_text())["format"] == "sphfluid-scene/1"
+
+
+def test_run_shows_progress_and_summary_in_a_subprocess(tmp_path):
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    r = sphfluid_cmd("run", scene)
+    assert r.returncode == 0, r.stderr
+    assert "100 particles" in r.stderr and "100.0%" in r.stderr
+    assert "steps               50" in r.stdout
+
+
+@pytest.mark.parametrize("content,message", [
+    ('{"format": "sphfluid-scene/1",\n "name": oops}', r"invalid JSON at line 2, column 10"),
+    (json.dumps({**BASE_SCENE, "solvr": {}}), r'solvr: unknown key \(did you mean "solver"\?\)'),
+    (json.dumps({**BASE_SCENE, "fluid": {"rest_density": -1, "gas_constant": 1}}),
+     r"fluid.rest_density: must be > 0, got -1"),
+])
+def test_run_fails_cleanly_on_a_broken_scene(tmp_path, content, message):
+    scene = tmp_path / "broken.json"
+    scene.write_text(content)
+    r = sphfluid_cmd("run", scene)
+    assert r.returncode == 2
+    assert r.stderr.startswith("error: ") and "Traceback" not in r.stderr
+    assert __import__("re").search(message, r.stderr), r.stderr
+
+
+def test_run_fails_cleanly_on_unreadable_inputs(tmp_path, capsys):
+    assert main(["run", str(tmp_path / "missing.json")]) == 2
+    assert "file not found" in capsys.readouterr().err
+    assert main(["run", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps({k: v for k, v in BASE_SCENE.items() if k != "duration"}))
+    assert main(["run", str(scene)]) == 2
+    assert "pass --duration" in capsys.readouterr().err
+
+
+def test_run_refuses_a_scene_larger_than_memory(tmp_path, capsys):
+    d = json.loads(json.dumps(BASE_SCENE))
+    d["domain"] = {"min": [-1, -1], "max": [3000, 3000]}
+    d["resolution"] = {"spacing": 0.05, "smoothing_length": 0.6}
+    d["fluid_regions"][0]["max"] = [2900, 2900]
+    d["walls"] = []
+    scene = tmp_path / "huge.json"
+    scene.write_text(json.dumps(d))
+    assert main(["run", str(scene)]) == 2
+    assert "more than memory allows" in capsys.readouterr().err
+
+
+def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys):
+    d = json.loads(json.dumps(BASE_SCENE))
+    d["fluid"]["gas_constant"] = 1e306  # pressures overflow to inf
+    d["fluid"]["viscosity"] = 0.0
+    d["solver"]["time_step"] = 0.01
+    d["duration"] = 5.0
+    scene = tmp_path / "boom.json"
+    scene.write_text(json.dumps(d))
+    assert main(["run", str(scene), "--quiet"]) == 3
+    assert "non-finite" in capsys.readouterr().err
+
+
+def test_bad_arguments_exit_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["run", str(SCENES[0]), "--duration", "-1"])
+    assert e.value.code == 2
+    assert "must be > 0" in capsys.readouterr().err
+
+
+def test_view_runs_headless_and_saves_a_screenshot(tmp_path):
+    shot = tmp_path / "shot.png"
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+    r = sphfluid_cmd("view", SCENES[0], "--frames", "5", "--screenshot", shot,
+                     "--size", "400x300", env=env)
+    assert r.returncode == 0, r.stderr
+    import pygame
+
+    img = pygame.image.load(str(shot))
+    assert img.get_size() == (400, 300)
+    pixels = pygame.surfarray.array3d(img).reshape(-1, 3)
+    # Some pixels carry the particle colours (blue dominant), most the background.
+    blue = (pixels[:, 2] > 150) & (pixels[:, 0] < 120)
+    assert blue.sum() > 500

@@ -1,0 +1,188 @@
+"""Scene validation: a table of broken scenes, each with its own message."""
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+from conftest import BASE_SCENE, SCENES
+
+import sphfluid
+from sphfluid.scene import SceneError
+
+
+def broken(edit):
+    d = copy.deepcopy(BASE_SCENE)
+    edit(d)
+    return d
+
+
+def setp(path, value):
+    def edit(d):
+        *head, last = path
+        for k in head:
+            d = d[k]
+        d[last] = value
+    return edit
+
+
+def delp(path):
+    def edit(d):
+        *head, last = path
+        for k in head:
+            d = d[k]
+        del d[last]
+    return edit
+
+
+CASES = [
+    (setp(["format"], "sphfluid-scene/2"), r'format: expected "sphfluid-scene/1", got "sphfluid-scene/2"'),
+    (delp(["format"]), r"format: required key is missing"),
+    (setp(["solvr"], {}), r'solvr: unknown key \(did you mean "solver"\?\)'),
+    (setp(["fluid", "rest_density"], -1), r"fluid.rest_density: must be > 0, got -1"),
+    (setp(["fluid", "rest_density"], "1000"), r"fluid.rest_density: expected a number, got the string '1000'"),
+    (setp(["fluid", "rest_density"], True), r"fluid.rest_density: expected a number, got a boolean"),
+    (delp(["fluid", "gas_constant"]), r"fluid.gas_constant: required key is missing \(the seed method"),
+    (setp(["fluid", "viscosity"], -0.1), r"fluid.viscosity: must be >= 0, got -0.1"),
+    (setp(["fluid", "viscocity"], 1.0), r'fluid.viscocity: unknown key \(did you mean "viscosity"\?\)'),
+    (setp(["gravity"], [0, -9.81, 0]), r"gravity: expected \[x, y\], got \[0, -9.81, 0\]"),
+    (setp(["domain", "min"], [2.0, 0.0]), r"domain: min must be below max in x and y"),
+    (delp(["domain"]), r"domain: required key is missing"),
+    (setp(["resolution", "spacing"], 0), r"resolution.spacing: must be > 0, got 0"),
+    (setp(["resolution", "smoothing_length"], 0.04), r"resolution.smoothing_length: must be > spacing"),
+    (setp(["walls", 0], [[0.5, 0.5], [0.5, 0.5]]), r"walls\[0\]: segment has zero length"),
+    (setp(["walls", 0], {"polyline": [[0, 0], [1, 0], [1, 0]]}), r"walls\[0\].polyline\[2\]: repeats the previous point"),
+    (setp(["walls", 0], {"polyline": [[0, 0]]}), r"walls\[0\].polyline: expected a list of at least 2 points"),
+    (setp(["walls", 0], {"polyline": [[0, 0], [1, 0]], "closd": True}), r'walls\[0\].closd: unknown key \(did you mean "closed"\?\)'),
+    (setp(["walls", 0], [[0, 0], [1, "a"]]), r"walls\[0\]\[1\]: expected \[x, y\]"),
+    (setp(["walls", 0], 5), r"walls\[0\]: expected a segment"),
+    (setp(["fluid_regions", 0, "shape"], "rectangel"), r'fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got "rectangel" \(did you mean "rectangle"\?\)'),
+    (setp(["fluid_regions", 0, "max"], [0.0, 0.5]), r"fluid_regions\[0\]: min must be below max"),
+    (setp(["fluid_regions", 0, "max"], [1.5, 0.5]), r"fluid_regions\[0\]: reaches outside the domain"),
+    (setp(["fluid_regions", 0], {"shape": "circle", "center": [0.5, 0.5]}), r"fluid_regions\[0\].radius: required key is missing"),
+    (setp(["fluid_regions", 0], {"shape": "circle", "center": [0.5, 0.5], "radius": 0.01}), r"fluid_regions\[0\]: holds no lattice point"),
+    (setp(["fluid_regions", 0], {"shape": "polygon", "points": [[0, 0], [0.5, 0.5], [0.5, 0], [0, 0.5]]}), r"fluid_regions\[0\].points: polygon is not simple: edge 0 crosses edge 2"),
+    (setp(["fluid_regions", 0], {"shape": "polygon", "points": [[0, 0], [0.5, 0.5]]}), r"fluid_regions\[0\].points: expected a list of at least 3 points"),
+    (setp(["fluid_regions", 0, "velocity"], [1.0]), r"fluid_regions\[0\].velocity: expected \[x, y\]"),
+    (setp(["fluid_regions", 0, "colour"], "blue"), r"fluid_regions\[0\].colour: unknown key"),
+    (setp(["solver", "method"], "sead"), r'solver.method: unknown method "sead" \(did you mean "seed"\?\)'),
+    (delp(["solver", "time_step"]), r"solver.time_step: required key is missing"),
+    (setp(["solver", "time_step"], -0.001), r"solver.time_step: must be > 0, got -0.001"),
+    (setp(["solver", "wall_restitution"], 1.5), r"solver.wall_restitution: must be <= 1, got 1.5"),
+    (setp(["duration"], float("inf")), r"duration: must be finite"),
+    (setp(["resolution", "spacing"], 1e-6), r"domain: spans .* cells|fluid_regions: would create about"),
+    (setp(["fluid_regions"], {}), r"fluid_regions: expected a list, got an object"),
+]
+
+
+@pytest.mark.parametrize("edit,message", CASES, ids=[c[1][:40] for c in CASES])
+def test_broken_scene_gives_its_message(edit, message):
+    with pytest.raises(SceneError, match=message):
+        sphfluid.load_scene(broken(edit))
+
+
+def test_every_problem_is_reported_at_once():
+    def edit(d):
+        d["fluid"]["rest_density"] = -1
+        d["solvr"] = {}
+        d["walls"][0] = [[0, 0], [0, 0]]
+
+    with pytest.raises(SceneError) as info:
+        sphfluid.load_scene(broken(edit))
+    assert len(info.value.problems) == 3
+    assert "3 problems" in str(info.value)
+
+
+def test_memory_limit_names_the_particle_count():
+    def edit(d):
+        d["domain"] = {"min": [-1.0, -1.0], "max": [2000.0, 2000.0]}
+        d["resolution"] = {"spacing": 0.05, "smoothing_length": 0.5}
+        d["fluid_regions"][0]["max"] = [1990.0, 1990.0]
+        d["walls"] = []
+
+    with pytest.raises(SceneError, match=r"would create about 1,584,\d{3},\d{3} particles"):
+        sphfluid.load_scene(broken(edit))
+
+
+def test_invalid_json_names_line_and_column(tmp_path):
+    f = tmp_path / "bad.json"
+    f.write_text('{\n  "format": "sphfluid-scene/1",\n  "name": "x" "y"\n}')
+    with pytest.raises(SceneError, match=r"bad.json: invalid JSON at line 3, column 15"):
+        sphfluid.load_scene(f)
+
+
+def test_duplicate_key_is_refused(tmp_path):
+    f = tmp_path / "dup.json"
+    f.write_text(json.dumps(BASE_SCENE)[:-1] + ', "duration": 3}')
+    with pytest.raises(SceneError, match="duplicate key 'duration'"):
+        sphfluid.load_scene(f)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(SceneError, match="nope.json: file not found"):
+        sphfluid.load_scene(tmp_path / "nope.json")
+
+
+def test_top_level_must_be_an_object(tmp_path):
+    f = tmp_path / "list.json"
+    f.write_text("[1, 2]")
+    with pytest.raises(SceneError, match="expected a JSON object at the top level"):
+        sphfluid.load_scene(f)
+
+
+def test_the_contract_example_loads():
+    # The example scene of SCENE_FORMAT.md, verbatim.
+    example = {
+        "format": "sphfluid-scene/1",
+        "name": "Dam break, 1 x 2 m column",
+        "gravity": [0.0, -9.81],
+        "domain": {"min": [-0.1, -0.1], "max": [4.1, 3.1]},
+        "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 0.1,
+                  "surface_tension": 0.0},
+        "resolution": {"spacing": 0.02, "smoothing_length": 0.04},
+        "fluid_regions": [
+            {"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]},
+            {"shape": "circle", "center": [3.0, 2.5], "radius": 0.2, "velocity": [0.0, -1.0]},
+            {"shape": "polygon", "points": [[2.0, 0.0], [2.5, 0.0], [2.25, 0.4]]},
+        ],
+        "walls": [[[0.0, 0.0], [4.0, 0.0]], [[4.0, 0.0], [4.0, 3.0]],
+                  {"polyline": [[0.0, 3.0], [0.0, 0.0]]}],
+        "solver": {"method": "seed", "time_step": 0.0002},
+        "duration": 2.0,
+    }
+    scene = sphfluid.load_scene(example)
+    pos, vel = scene.lattice_points()
+    assert len(scene.walls) == 3
+    # The rectangle alone is 50 x 100 lattice points; the circle moves down.
+    assert ((pos[:, 0] < 1.0) & (pos[:, 1] < 2.0)).sum() == 5000
+    assert np.all(vel[np.hypot(pos[:, 0] - 3.0, pos[:, 1] - 2.5) <= 0.2] == [0.0, -1.0])
+
+
+def test_defaults_fill_optional_keys(scene_dict):
+    for key in ("gravity", "name", "duration"):
+        scene_dict.pop(key)
+    scene_dict["fluid"] = {"rest_density": 1000.0, "gas_constant": 100.0}
+    scene_dict["resolution"] = {"spacing": 0.05}
+    scene = sphfluid.load_scene(scene_dict)
+    assert scene.gravity == (0.0, -9.81)
+    assert scene.viscosity == 0.0 and scene.surface_tension == 0.0
+    assert scene.smoothing_length == pytest.approx(0.1)
+    assert scene.duration is None
+
+
+def test_overlapping_regions_make_each_lattice_point_once(scene_dict):
+    scene_dict["fluid_regions"].append({"shape": "rectangle", "min": [0.25, 0.25],
+                                        "max": [0.75, 0.75], "velocity": [1.0, 0.0]})
+    pos, vel = sphfluid.load_scene(scene_dict).lattice_points()
+    assert len(np.unique(pos, axis=0)) == len(pos) == 100 + 100 - 25
+    # A point in both keeps the first region's velocity.
+    both = np.all((pos > 0.25) & (pos < 0.5), axis=1)
+    assert both.sum() == 25 and np.all(vel[both] == 0.0)
+
+
+@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+def test_bundled_scene_round_trips_through_to_dict(path):
+    scene = sphfluid.load_scene(path)
+    again = sphfluid.load_scene(json.loads(json.dumps(scene.to_dict())))
+    assert again == scene
