@@ -1,6 +1,8 @@
 // The extension module sphfluid._core: only calls the bind_* functions.
 #include <pybind11/pybind11.h>
 
+#include "types.hpp"
+
 namespace py = pybind11;
 
 void bind_solver(py::module_& m);
@@ -15,6 +17,21 @@ PYBIND11_MODULE(_core, m) {
 #else
   m.attr("has_openmp") = false;
 #endif
+  py::dict info;
+  info["compiler"] = SPHFLUID_COMPILER;
+  info["build_type"] = SPHFLUID_BUILD_TYPE;
+#ifdef SPHFLUID_MARCH_NATIVE
+  info["march_native"] = true;
+#else
+  info["march_native"] = false;
+#endif
+#ifdef _OPENMP
+  info["openmp"] = _OPENMP;
+#else
+  info["openmp"] = py::none();
+#endif
+  info["real"] = sizeof(sphfluid::Real) == 8 ? "double" : "float";
+  m.attr("build_info") = info;
   bind_solver(m);
   py::module_ k = m.def_submodule("kernels", "2D SPH kernels, vectorised, for tests");
   bind_kernels(k);

@@ -1,5 +1,5 @@
-// Counting sort of particles into cells and the cell-range neighbour search.
-// Reads positions; writes the permutation, cell ranges and the CSR neighbour list.
+// Counting sort of particles into cells (the neighbour search is in grid.hpp).
+// Reads positions; writes the permutation and the cell ranges.
 #include "grid.hpp"
 
 #include <algorithm>
@@ -9,7 +9,8 @@
 
 namespace sphfluid {
 
-void CellGrid::sort(const Vec2* x, Index n, Real cell, std::vector<Index>& order) {
+void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
+                    std::vector<Index>& order) {
   Vec2 lo(0, 0), hi(0, 0);
   if (n > 0) {
     lo = hi = x[0];
@@ -18,7 +19,7 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell, std::vector<Index>& order
       hi = hi.cwiseMax(x[i]);
     }
   }
-  inv_cell_ = 1 / cell;
+  inv_cell_ = 1 / cell_size;
   origin_ = lo;
   const double cx = std::floor((hi.x() - lo.x()) * inv_cell_) + 1;
   const double cy = std::floor((hi.y() - lo.y()) * inv_cell_) + 1;
@@ -33,13 +34,16 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell, std::vector<Index>& order
 
   unsorted_cell_.resize(n);
   cell_start_.assign(n_cells + 1, 0);
+  Index* cell = unsorted_cell_.data();
+  const Real inv = inv_cell_;
+  const Index nx = nx_, ny = ny_;
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (Index i = 0; i < n; ++i) {
-    const Index ix = std::min<Index>(static_cast<Index>((x[i].x() - lo.x()) * inv_cell_), nx_ - 1);
-    const Index iy = std::min<Index>(static_cast<Index>((x[i].y() - lo.y()) * inv_cell_), ny_ - 1);
-    const Index c = iy * nx_ + ix;
-    unsorted_cell_[i] = c;
-    ++cell_start_[c + 1];
+    const Index ix = std::min<Index>(static_cast<Index>((x[i].x() - lo.x()) * inv), nx - 1);
+    const Index iy = std::min<Index>(static_cast<Index>((x[i].y() - lo.y()) * inv), ny - 1);
+    cell[i] = iy * nx + ix;
   }
+  for (Index i = 0; i < n; ++i) ++cell_start_[cell[i] + 1];
   for (std::size_t c = 0; c < n_cells; ++c) cell_start_[c + 1] += cell_start_[c];
 
   order.resize(n);
@@ -52,34 +56,6 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell, std::vector<Index>& order
     order[k] = i;
     cell_of_[k] = c;
   }
-}
-
-void CellGrid::neighbours(const Vec2* x, Index n, Real h, int threads, Csr<Index>& out) const {
-  const Real h2 = h * h;
-  build_csr<Index>(n, threads, out, [&](Index i, std::vector<Index>& list) {
-    const Index c = cell_of_[i];
-    const Index cy = c / nx_, cx = c - cy * nx_;
-    const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx_ - 1);
-    const Index y0 = std::max<Index>(cy - 1, 0), y1 = std::min<Index>(cy + 1, ny_ - 1);
-    const Vec2 xi = x[i];
-    // Branch-free: write every candidate, advance only for real neighbours.
-    Index candidates = 0;
-    for (Index yy = y0; yy <= y1; ++yy)
-      candidates += cell_start_[yy * nx_ + x1 + 1] - cell_start_[yy * nx_ + x0];
-    const std::size_t base = list.size();
-    list.resize(base + candidates);
-    Index* out = list.data() + base;
-    Index count = 0;
-    for (Index yy = y0; yy <= y1; ++yy) {
-      // Cells x0..x1 of one row are contiguous in the sorted storage.
-      const Index j0 = cell_start_[yy * nx_ + x0], j1 = cell_start_[yy * nx_ + x1 + 1];
-      for (Index j = j0; j < j1; ++j) {
-        out[count] = j;
-        count += static_cast<Index>(((xi - x[j]).squaredNorm() < h2) & (j != i));
-      }
-    }
-    list.resize(base + count);
-  });
 }
 
 }  // namespace sphfluid

@@ -3,6 +3,7 @@
 // the blocks are concatenated, so the result does not depend on thread count.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -41,18 +42,41 @@ inline int thread_team_size() {
 
 using Offset = std::int64_t;
 
+// A growable array that never zero-fills: the per-thread output of build_csr.
+template <class T>
+class Chunk {
+ public:
+  std::size_t size() const { return size_; }
+  const T* begin() const { return data_.data(); }
+  const T* end() const { return data_.data() + size_; }
+  void clear() { size_ = 0; }
+  void push_back(const T& v) { *extend(1) = v; }
+  // k writable slots at the end; keep only what is then committed with resize().
+  T* extend(std::size_t k) {
+    if (size_ + k > data_.size()) data_.resize(std::max(2 * data_.size(), size_ + k + 64));
+    T* out = data_.data() + size_;
+    size_ += k;
+    return out;
+  }
+  void resize(std::size_t n) { size_ = n; }  // n <= size()
+
+ private:
+  std::vector<T> data_;  // capacity; only [0, size_) holds entries
+  std::size_t size_ = 0;
+};
+
 // Compressed rows: the entries of particle i are items[start[i] .. start[i+1]).
 template <class T>
 struct Csr {
   std::vector<Offset> start;
   std::vector<T> items;
-  std::vector<std::vector<T>> per_thread;  // scratch kept between steps
+  std::vector<Chunk<T>> per_thread;  // scratch kept between steps
 
   Offset begin(Index i) const { return start[i]; }
   Offset end(Index i) const { return start[i + 1]; }
 };
 
-// emit(i, out) appends particle i's entries to out (a std::vector<T>).
+// emit(i, out) appends particle i's entries to out (a Chunk<T>).
 template <class T, class Emit>
 void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
   const int nt_max = resolve_threads(threads);
@@ -64,10 +88,9 @@ void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
     const int t = thread_rank(), nt = thread_team_size();
     const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
     const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
-    // Work on a vector whose header lives on this thread's stack: the headers
-    // in per_thread share cache lines, and push_back writes them constantly.
-    std::vector<T> local;
-    local.swap(csr.per_thread[t]);
+    // Work on a buffer whose header lives on this thread's stack: the headers
+    // in per_thread share cache lines, and appending writes them constantly.
+    Chunk<T> local = std::move(csr.per_thread[t]);
     local.clear();
     for (Index i = lo; i < hi; ++i) {
       csr.start[i] = static_cast<Offset>(local.size());
@@ -83,7 +106,7 @@ void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
     const Offset off = base[t];
     for (Index i = lo; i < hi; ++i) csr.start[i] += off;
     std::copy(local.begin(), local.end(), csr.items.begin() + off);
-    local.swap(csr.per_thread[t]);  // keep the capacity for the next step
+    csr.per_thread[t] = std::move(local);  // keep the capacity for the next step
   }
   csr.start[n] = static_cast<Offset>(csr.items.size());
 }

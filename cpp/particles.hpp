@@ -7,6 +7,7 @@
 #include <memory>
 #include <vector>
 
+#include "parallel.hpp"
 #include "types.hpp"
 
 namespace sphfluid {
@@ -33,13 +34,15 @@ class Field {
   }
 
   // out[k] = in[order[k]] for every k; order has size() entries.
-  void permute(const std::vector<Index>& order) {
+  void permute(const std::vector<Index>& order, int threads) {
     if (!tmp_ || tmp_.use_count() > 1) tmp_ = std::make_shared<Buffer>();
     tmp_->resize(order.size());
-    const Buffer& in = *buf_;
-    Buffer& out = *tmp_;
+    const T* in = buf_->data();
+    T* out = tmp_->data();
+    const Index* o = order.data();
     const Index n = static_cast<Index>(order.size());
-    for (Index k = 0; k < n; ++k) out[k] = in[order[k]];
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index k = 0; k < n; ++k) out[k] = in[o[k]];
     buf_.swap(tmp_);
   }
 
@@ -84,10 +87,10 @@ struct ParticleSet {
   }
 
   // Reorder the state (x, v, id); derived fields are recomputed after a sort.
-  void permute_state(const std::vector<Index>& order) {
-    x.permute(order);
-    v.permute(order);
-    id.permute(order);
+  void permute_state(const std::vector<Index>& order, int threads) {
+    x.permute(order, threads);
+    v.permute(order, threads);
+    id.permute(order, threads);
   }
 
   void compact(const std::vector<char>& keep) {

@@ -1,0 +1,158 @@
+"""`sphfluid bench`: the dam break at about N particles, fixed dt, timed on 1 and 2
+threads. Prints steps/s, particle-steps/s and per-phase times next to the
+accuracy of the same run, and can write the table into a Markdown file.
+"""
+from __future__ import annotations
+
+import datetime
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from .simulation import Simulation
+
+# Martin & Moyce (1952), n^2 = 2, surge front Z = x/a against T = t sqrt(2 g / a)
+# (their Table 2, a = 2.25 in): ../shared/reference/dambreak_martin_moyce.csv.
+MM_T = np.array([0.0, 0.41, 0.84, 1.19, 1.43, 1.63, 1.83, 1.98, 2.20, 2.32, 2.51, 2.65, 2.83,
+                 2.98, 3.11, 3.33])
+MM_Z = np.array([1.0, 1.11, 1.22, 1.44, 1.67, 1.89, 2.11, 2.33, 2.56, 2.78, 3.00, 3.22, 3.44,
+                 3.67, 3.89, 4.11])
+
+
+def dam_break_scene(n_target: int) -> dict:
+    """The bundled dam break (1 x 2 m column, 4 m tank) at about n_target particles.
+
+    dt scales with the spacing (a fixed CFL number: dt = 0.01 dx / 1 m/s ... see
+    below) so every N runs the same physics: dt = 0.0002 s at dx = 0.02 m.
+    """
+    dx = math.sqrt(2.0 / n_target)
+    return {
+        "format": "sphfluid-scene/1",
+        "name": f"Dam break, {n_target:,} particles",
+        "gravity": [0.0, -9.81],
+        "domain": {"min": [-0.1, -0.1], "max": [4.1, 3.6]},
+        "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
+        "resolution": {"spacing": dx, "smoothing_length": 2 * dx},
+        "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]}],
+        "walls": [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}],
+        "solver": {"method": "seed", "time_step": 0.0002 * dx / 0.02},
+    }
+
+
+def front_error(sim: Simulation, a: float = 1.0) -> tuple[float, float, float]:
+    """(T, simulated Z, Martin & Moyce Z at that T); the front ignores the two
+    particles farthest out (spray)."""
+    t_star = sim.time * math.sqrt(2 * 9.81 / a)
+    x = np.sort(sim.positions[:, 0])
+    z = x[-3] / a if len(x) > 3 else float("nan")
+    return t_star, z, float(np.interp(t_star, MM_T, MM_Z))
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def run_case(n_target: int, threads: int, steps: int, warmup: int) -> dict:
+    sim = Simulation(dam_break_scene(n_target), threads=threads)
+    sim.step(warmup)
+    sim._solver.reset_phase_seconds()
+    n = sim.n_particles
+    start = time.perf_counter()
+    sim.step(steps)
+    wall = time.perf_counter() - start
+    phases = sim._solver.phase_seconds()
+    t_star, z, z_ref = front_error(sim)
+    return {"threads": threads, "particles": n, "steps": steps, "wall": wall,
+            "steps_per_s": steps / wall, "pps": steps * n / wall,
+            "ns_per_ps": 1e9 * wall / (steps * n),
+            "phases_us": {k: 1e6 * v / steps for k, v in phases.items()},
+            "T": t_star, "Z": z, "Z_ref": z_ref,
+            "max_density_error": sim.stats()["max_density_error"]}
+
+
+def table(rows: list[dict], command: str) -> str:
+    info = _core.build_info
+    lines = [
+        f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, "
+        f"-march=native {'on' if info['march_native'] else 'off'}, OpenMP "
+        f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}.",
+        f"Command: `{command}`",
+        "",
+        "| threads | particles | steps | wall s | steps/s | particle-steps/s | ns/particle-step "
+        "| speed-up | front Z (M&M) at T | max density error |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|",
+    ]
+    base = rows[0]["wall"]
+    for r in rows:
+        lines.append(
+            f"| {r['threads']} | {r['particles']:,} | {r['steps']:,} | {r['wall']:.3f} | "
+            f"{r['steps_per_s']:,.0f} | {r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | "
+            f"{base / r['wall']:.2f} | {r['Z']:.2f} ({r['Z_ref']:.2f}) at {r['T']:.2f} | "
+            f"{r['max_density_error']:.3f} |")
+    lines += ["", "Time per step by phase (microseconds):", "",
+              "| threads | " + " | ".join(rows[0]["phases_us"]) + " |",
+              "|---:|" + "---:|" * len(rows[0]["phases_us"])]
+    for r in rows:
+        lines.append(f"| {r['threads']} | " + " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
+                     + " |")
+    return "\n".join(lines) + "\n"
+
+
+BEGIN = "<!-- sphfluid bench: begin -->"
+END = "<!-- sphfluid bench: end -->"
+
+
+def write_section(path: Path, text: str) -> None:
+    """Replace the bench section of a Markdown file (or append one)."""
+    block = f"{BEGIN}\n{text}{END}\n"
+    old = path.read_text() if path.exists() else ""
+    if BEGIN in old and END in old:
+        new = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END) + 1:]
+    else:
+        new = old + ("\n" if old and not old.endswith("\n") else "") + block
+    path.write_text(new)
+
+
+def main(args) -> int:
+    try:
+        threads = [int(t) for t in str(args.threads).split(",")]
+        if not threads or min(threads) < 1:
+            raise ValueError
+    except ValueError:
+        print(f"error: --threads: expected a list like 1,2, got {args.threads!r}", file=sys.stderr)
+        return 2
+    if args.particles < 100 or args.steps < 1:
+        print("error: --particles must be >= 100 and --steps >= 1", file=sys.stderr)
+        return 2
+    rows = []
+    for t in threads:
+        r = run_case(args.particles, t, args.steps, args.warmup)
+        rows.append(r)
+        print(f"{t} thread(s): {r['particles']:,} particles, {r['steps_per_s']:,.0f} steps/s, "
+              f"{r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} ns/particle-step; "
+              f"front Z = {r['Z']:.2f} at T = {r['T']:.2f} (Martin & Moyce {r['Z_ref']:.2f})",
+              file=sys.stderr)
+    command = "sphfluid bench " + " ".join(
+        f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
+                                  ("warmup", args.warmup), ("threads", args.threads)))
+    text = table(rows, command)
+    print(text)
+    if args.write:
+        write_section(args.write, text)
+        print(f"wrote {args.write}", file=sys.stderr)
+    return 0
