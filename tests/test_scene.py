@@ -186,3 +186,21 @@ def test_bundled_scene_round_trips_through_to_dict(path):
     scene = sphfluid.load_scene(path)
     again = sphfluid.load_scene(json.loads(json.dumps(scene.to_dict())))
     assert again == scene
+
+
+def test_json_schema_lists_exactly_the_keys_the_loader_accepts():
+    from importlib import resources
+
+    from sphfluid import scene as sc
+
+    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text())
+    props = schema["properties"]
+    assert set(props) == set(sc._TOP_KEYS)
+    assert set(props["domain"]["properties"]) == set(sc._DOMAIN_KEYS)
+    assert set(props["fluid"]["properties"]) == set(sc._FLUID_KEYS)
+    assert set(props["resolution"]["properties"]) == set(sc._RESOLUTION_KEYS)
+    assert set(props["solver"]["properties"]) == set(sc._SOLVER_KEYS)
+    assert props["solver"]["properties"]["method"]["enum"] == list(sc.METHODS)
+    shapes = {s["properties"]["shape"]["const"]: set(s["properties"])
+              for s in props["fluid_regions"]["items"]["oneOf"]}
+    assert shapes == {k: set(v) for k, v in sc._SHAPE_KEYS.items()}
