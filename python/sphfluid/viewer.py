@@ -34,13 +34,14 @@ def speed_colours(n: int = 256) -> np.ndarray:
 class _Camera:
     """Maps world coordinates (m, y up) to pixels (y down), fitting the domain."""
 
-    def __init__(self, scene: Scene, size: tuple[int, int], margin: int = 10, bar: int = 24):
+    def __init__(self, scene: Scene, size: tuple[int, int], margin: int = 10, top: int = 24,
+                 bottom: int = 20):
         (x0, y0), (x1, y1) = scene.domain_min, scene.domain_max
         w, h = size
-        self.scale = min((w - 2 * margin) / (x1 - x0), (h - 2 * margin - bar) / (y1 - y0))
+        free_h = h - 2 * margin - top - bottom
+        self.scale = min((w - 2 * margin) / (x1 - x0), free_h / (y1 - y0))
         self.ox = margin + 0.5 * ((w - 2 * margin) - self.scale * (x1 - x0)) - self.scale * x0
-        self.oy = bar + margin + 0.5 * ((h - 2 * margin - bar) - self.scale * (y1 - y0)) \
-            + self.scale * y1
+        self.oy = top + margin + 0.5 * (free_h - self.scale * (y1 - y0)) + self.scale * y1
 
     def to_screen(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return (self.ox + self.scale * xy[..., 0], self.oy - self.scale * xy[..., 1])
@@ -57,7 +58,7 @@ def draw_particles(pixels: np.ndarray, sim: Simulation, cam: _Camera, lut: np.nd
     iy = np.rint(sy).astype(np.int64)
     speed = np.sqrt((sim.velocities**2).sum(axis=1))
     colour = lut[np.minimum((speed / vmax * (len(lut) - 1)).astype(np.int64), len(lut) - 1)]
-    radius = max(0, int(round(0.5 * sim.scene.spacing * cam.scale)) - 0)
+    radius = max(0, int(round(0.5 * sim.scene.spacing * cam.scale)))
     w, h = pixels.shape[:2]
     for dx in range(-radius, radius + 1):
         for dy in range(-radius, radius + 1):
@@ -136,9 +137,10 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                 pygame.draw.line(screen, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
             status = (f"t = {sim.time:7.3f} s   {clock.get_fps():5.1f} fps   "
                       f"{step_rate:8,.0f} steps/s   {sim.n_particles:,} particles   "
-                      f"{n_steps} steps/frame" + ("   PAUSED" if paused else "")
-                      + "   [space] pause  [S] step  [R] reset  [Q] quit")
+                      f"{n_steps} steps/frame" + ("   PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
+            keys = "space pause   S / right: one step   R reset   Q quit"
+            screen.blit(font.render(keys, True, (150, 150, 160)), (8, size[1] - 18))
             if message:
                 screen.blit(font.render(message[:160], True, (255, 120, 120)), (8, 24))
             pygame.display.flip()
