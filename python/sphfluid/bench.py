@@ -85,6 +85,15 @@ def run_case(n_target: int, threads: int, steps: int, warmup: int) -> dict:
             "max_density_error": sim.stats()["max_density_error"]}
 
 
+def median_run(runs: list[dict]) -> dict:
+    """The run with the median wall time, annotated with the spread of all runs."""
+    ordered = sorted(runs, key=lambda r: r["wall"])
+    r = dict(ordered[len(ordered) // 2])
+    r["range"] = (ordered[-1]["steps_per_s"], ordered[0]["steps_per_s"])
+    r["repeats"] = len(runs)
+    return r
+
+
 def table(rows: list[dict], command: str) -> str:
     info = _core.build_info
     lines = [
@@ -93,15 +102,19 @@ def table(rows: list[dict], command: str) -> str:
         f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}.",
         f"Command: `{command}`",
         "",
-        "| threads | particles | steps | wall s | steps/s | particle-steps/s | ns/particle-step "
-        "| speed-up | front Z (M&M) at T | max density error |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|",
+        f"Each figure is the median of {rows[0]['repeats']} interleaved run(s); the range is "
+        "the slowest and fastest run.",
+        "",
+        "| threads | particles | steps | wall s | steps/s | range | particle-steps/s "
+        "| ns/particle-step | speed-up | front Z (M&M) at T | max density error |",
+        "|---:|---:|---:|---:|---:|---|---:|---:|---:|---|---:|",
     ]
     base = rows[0]["wall"]
     for r in rows:
         lines.append(
             f"| {r['threads']} | {r['particles']:,} | {r['steps']:,} | {r['wall']:.3f} | "
-            f"{r['steps_per_s']:,.0f} | {r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | "
+            f"{r['steps_per_s']:,.0f} | {r['range'][0]:,.0f}–{r['range'][1]:,.0f} | "
+            f"{r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | "
             f"{base / r['wall']:.2f} | {r['Z']:.2f} ({r['Z_ref']:.2f}) at {r['T']:.2f} | "
             f"{r['max_density_error']:.3f} |")
     lines += ["", "Time per step by phase (microseconds):", "",
@@ -139,17 +152,23 @@ def main(args) -> int:
     if args.particles < 100 or args.steps < 1:
         print("error: --particles must be >= 100 and --steps >= 1", file=sys.stderr)
         return 2
-    rows = []
-    for t in threads:
-        r = run_case(args.particles, t, args.steps, args.warmup)
-        rows.append(r)
-        print(f"{t} thread(s): {r['particles']:,} particles, {r['steps_per_s']:,.0f} steps/s, "
-              f"{r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} ns/particle-step; "
-              f"front Z = {r['Z']:.2f} at T = {r['T']:.2f} (Martin & Moyce {r['Z_ref']:.2f})",
-              file=sys.stderr)
+    if args.repeat < 1:
+        print("error: --repeat must be >= 1", file=sys.stderr)
+        return 2
+    runs: dict[int, list[dict]] = {t: [] for t in threads}
+    for _ in range(args.repeat):  # interleaved, so slow spells of a shared machine hit all
+        for t in threads:
+            r = run_case(args.particles, t, args.steps, args.warmup)
+            runs[t].append(r)
+            print(f"{t} thread(s): {r['particles']:,} particles, {r['steps_per_s']:,.0f} "
+                  f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
+                  f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
+                  f"(Martin & Moyce {r['Z_ref']:.2f})", file=sys.stderr)
+    rows = [median_run(runs[t]) for t in threads]
     command = "sphfluid bench " + " ".join(
         f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
-                                  ("warmup", args.warmup), ("threads", args.threads)))
+                                  ("warmup", args.warmup), ("threads", args.threads),
+                                  ("repeat", args.repeat)))
     text = table(rows, command)
     print(text)
     if args.write:

@@ -74,6 +74,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--steps", type=_count, default=1000)
     b.add_argument("--warmup", type=_count, default=100)
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
+    b.add_argument("--repeat", type=_count, default=3,
+                   help="runs per thread count, interleaved; the median is reported")
     b.add_argument("--write", type=Path, help="append the table to this Markdown file")
     return p
 
