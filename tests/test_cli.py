@@ -9,7 +9,6 @@ import sys
 import numpy as np
 import pytest
 from conftest import BASE_SCENE, SCENES
-
 from sphfluid.cli import main
 
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from sphfluid._core import kernels
 
 H = 0.37
@@ -70,7 +69,7 @@ def test_poly6_laplacian_matches_finite_differences():
     pts = rng.uniform(-H, H, (100, 2))
     pts = pts[np.hypot(*pts.T) < 0.95 * H]
     eps = 1e-4 * H
-    w = lambda p: kernels.w_poly6(np.hypot(*p.T), H)  # noqa: E731
+    w = lambda p: kernels.w_poly6(np.hypot(*p.T), H)
     lap = sum(w(pts + e) + w(pts - e) - 2 * w(pts) for e in (np.array([eps, 0]), np.array([0, eps])))
     lap /= eps**2
     ana = kernels.lap_poly6(np.hypot(*pts.T), H)

@@ -6,10 +6,9 @@ import json
 
 import numpy as np
 import pytest
+import sphfluid
 from conftest import ROOT
 from reference import seed_forces
-
-import sphfluid
 from sphfluid import _core
 
 

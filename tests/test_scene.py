@@ -6,9 +6,8 @@ import json
 
 import numpy as np
 import pytest
-from conftest import BASE_SCENE, SCENES
-
 import sphfluid
+from conftest import BASE_SCENE, SCENES
 from sphfluid.scene import SceneError
 
 

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SCENES
-
 import sphfluid
+from conftest import SCENES
 
 
 def crossings(x0, x1, walls):

@@ -5,9 +5,8 @@ import json
 
 import numpy as np
 import pytest
-from conftest import ROOT
-
 import sphfluid
+from conftest import ROOT
 
 
 def run(name, threads, steps, tweak=None):

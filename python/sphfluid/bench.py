@@ -28,8 +28,8 @@ MM_Z = np.array([1.0, 1.11, 1.22, 1.44, 1.67, 1.89, 2.11, 2.33, 2.56, 2.78, 3.00
 def dam_break_scene(n_target: int) -> dict:
     """The bundled dam break (1 x 2 m column, 4 m tank) at about n_target particles.
 
-    dt scales with the spacing (a fixed CFL number: dt = 0.01 dx / 1 m/s ... see
-    below) so every N runs the same physics: dt = 0.0002 s at dx = 0.02 m.
+    dt scales with the spacing (a fixed CFL number), so every N runs the same
+    physics: dt = 0.0002 s at dx = 0.02 m.
     """
     dx = math.sqrt(2.0 / n_target)
     return {
@@ -97,16 +97,16 @@ def median_run(runs: list[dict]) -> dict:
 def table(rows: list[dict], command: str) -> str:
     info = _core.build_info
     lines = [
-        f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, "
-        f"-march=native {'on' if info['march_native'] else 'off'}, OpenMP "
-        f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}.",
+        (f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, "
+         f"-march=native {'on' if info['march_native'] else 'off'}, OpenMP "
+         f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}."),
         f"Command: `{command}`",
         "",
-        f"Each figure is the median of {rows[0]['repeats']} interleaved run(s); the range is "
-        "the slowest and fastest run.",
+        (f"Each figure is the median of {rows[0]['repeats']} interleaved run(s); the range is "
+         "the slowest and fastest run."),
         "",
-        "| threads | particles | steps | wall s | steps/s | range | particle-steps/s "
-        "| ns/particle-step | speed-up | front Z (M&M) at T | max density error |",
+        ("| threads | particles | steps | wall s | steps/s | range | particle-steps/s "
+         "| ns/particle-step | speed-up | front Z (M&M) at T | max density error |"),
         "|---:|---:|---:|---:|---:|---|---:|---:|---:|---|---:|",
     ]
     base = rows[0]["wall"]

@@ -7,7 +7,6 @@ machine is shared and noisy: compare ratios within one run).
 from __future__ import annotations
 
 import pytest
-
 import sphfluid
 from sphfluid.bench import run_case
 
