@@ -59,7 +59,11 @@ void bind_solver(py::module_& m) {
                      "wall ghost density / rest density")
       .def_readwrite("restitution", &SimParams::restitution,
                      "normal restitution of the wall reflection, in [0, 1]")
-      .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)");
+      .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)")
+      .def_readwrite("cfl", &SimParams::cfl, "CFL factor of the adaptive time step")
+      .def_readwrite("dt_max", &SimParams::dt_max, "cap on the adaptive time step, s (0: none)")
+      .def_property_readonly("sound_speed", &SimParams::sound_speed,
+                             "speed of sound of the method's EOS, m/s");
 
   py::class_<Solver>(m, "Solver", "The seed SPH method on a set of particles and walls.")
       .def(py::init([](const SimParams& p, const InArray& x, const InArray& v, const InArray& walls,
@@ -74,6 +78,18 @@ void bind_solver(py::module_& m) {
       .def("step", &Solver::step, py::arg("dt"), py::arg("n") = 1,
            py::call_guard<py::gil_scoped_release>(),
            "Advance n steps of size dt (GIL released). Raises InstabilityError on blow-up.")
+      .def("step_adaptive", &Solver::step_adaptive, py::arg("n") = 1,
+           py::call_guard<py::gil_scoped_release>(),
+           "Advance n steps, each with the largest stable dt (GIL released).")
+      .def("advance_adaptive", &Solver::advance_adaptive, py::arg("t_end"),
+           py::arg("max_steps"), py::call_guard<py::gil_scoped_release>(),
+           "Adaptive steps until time reaches t_end (landing on it) or max_steps; "
+           "returns the number of steps taken.")
+      .def_property_readonly("last_dt", &Solver::last_dt, "time step of the last step, s")
+      .def_property_readonly(
+          "last_dt_limit", [](const Solver& s) { return std::string(limit_name(s.last_limit())); },
+          "what limited the last step: fixed, cfl, force, viscous or dt_max (a step shortened "
+          "to land on an end time keeps that label)")
       .def("compute_forces", &Solver::compute_forces, py::call_guard<py::gil_scoped_release>(),
            "Density, pressure and acceleration for the current state; nothing moves.")
       .def(

@@ -1,7 +1,10 @@
 // SimParams: every physical and numerical constant of a run, in SI units.
+// TimeStepLimit names the condition that chose an adaptive step.
 // Filled by the Python scene loader (or by hand in tests); read by the Solver.
 // Feature flags name the optional terms so the step can be specialised on them.
 #pragma once
+
+#include <cmath>
 
 #include "types.hpp"
 
@@ -12,6 +15,19 @@ enum Feature : unsigned {
   kSurfaceTension = 1u << 1,  // sigma > 0: seed eqs. 18-20
   kWalls = 1u << 2,           // at least one wall segment: seed section 4
 };
+
+enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
+
+inline const char* limit_name(TimeStepLimit l) {
+  switch (l) {
+    case TimeStepLimit::kFixed: return "fixed";
+    case TimeStepLimit::kCfl: return "cfl";
+    case TimeStepLimit::kForce: return "force";
+    case TimeStepLimit::kViscous: return "viscous";
+    case TimeStepLimit::kMax: return "dt_max";
+  }
+  return "?";
+}
 
 struct SimParams {
   Real h = 0.04;         // smoothing length (kernel support), m
@@ -37,6 +53,19 @@ struct SimParams {
   Real restitution = 1.0;
 
   int threads = 0;  // OpenMP threads; 0 = the OpenMP default
+
+  // Adaptive time step: each step takes the largest dt that satisfies
+  //   dt <= cfl h / (c + |v|max)            (sound speed and flow speed)
+  //   dt <= kForceFactor sqrt(h / |a|max)   (force)
+  //   dt <= kViscousFactor h^2 rho0 / eta   (viscous diffusion)
+  // (Monaghan 1992; Morris, Fox & Zhu 1997), capped by dt_max when > 0.
+  Real cfl = 0.4;
+  Real dt_max = 0;  // s; 0 = no cap
+  static constexpr Real kForceFactor = 0.25;
+  static constexpr Real kViscousFactor = 0.125;
+
+  // Speed of sound of the seed's EOS p = k (rho - rho0): c^2 = dp/drho = k.
+  Real sound_speed() const { return std::sqrt(k); }
 
   // Mueller et al. (2003) use l = 7.065 /m with h = 0.0457 m, i.e. l h = 0.323.
   static constexpr Real kSurfaceThresholdTimesH = 0.323;

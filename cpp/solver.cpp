@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace sphfluid {
@@ -102,7 +103,62 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
 void Solver::step(Real dt, int n) {
   require(std::isfinite(dt) && dt > 0, "time step must be > 0");
   require(n >= 0, "number of steps must be >= 0");
-  for (int s = 0; s < n; ++s) (this->*step_fn_)(dt);
+  for (int s = 0; s < n; ++s) (this->*step_fn_)(dt, 0);
+}
+
+void Solver::step_adaptive(int n) {
+  require(n >= 0, "number of steps must be >= 0");
+  for (int s = 0; s < n; ++s) (this->*step_fn_)(0, 0);
+}
+
+std::int64_t Solver::advance_adaptive(Real t_end, std::int64_t max_steps) {
+  require(std::isfinite(t_end), "end time must be finite");
+  require(max_steps >= 0, "max_steps must be >= 0");
+  std::int64_t taken = 0;
+  // Stop when the rest is below round-off of the time itself.
+  while (taken < max_steps && t_end - time_ > 1e-12 * std::max(Real(1), std::abs(t_end))) {
+    (this->*step_fn_)(0, t_end - time_);
+    ++taken;
+  }
+  return taken;
+}
+
+// The largest dt allowed by the sound-speed/flow CFL, force and viscous
+// conditions, from the accelerations just computed.
+Real Solver::choose_dt(Real dt_cap) {
+  const Index n = size();
+  const Vec2* v = ps_.v.data();
+  const Vec2* a = ps_.a.data();
+  Real v2 = 0, a2 = 0;
+#pragma omp parallel for schedule(static) num_threads(threads_) reduction(max : v2, a2)
+  for (Index i = 0; i < n; ++i) {
+    v2 = std::max(v2, v[i].squaredNorm());
+    a2 = std::max(a2, a[i].squaredNorm());
+  }
+  const SimParams& P = params_;
+  const Real inf = std::numeric_limits<Real>::infinity();
+  Real dt = P.cfl * P.h / (P.sound_speed() + std::sqrt(v2));
+  TimeStepLimit limit = TimeStepLimit::kCfl;
+  auto consider = [&](Real candidate, TimeStepLimit why) {
+    if (candidate < dt) {
+      dt = candidate;
+      limit = why;
+    }
+  };
+  consider(a2 > 0 ? SimParams::kForceFactor * std::sqrt(P.h / std::sqrt(a2)) : inf,
+           TimeStepLimit::kForce);
+  consider(P.eta > 0 ? SimParams::kViscousFactor * P.h * P.h * P.rho0 / P.eta : inf,
+           TimeStepLimit::kViscous);
+  consider(P.dt_max > 0 ? P.dt_max : inf, TimeStepLimit::kMax);
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " + fmt(time_) +
+                           " s): no finite time step satisfies the stability conditions "
+                           "(max speed " + fmt(std::sqrt(v2)) + " m/s, max acceleration " +
+                           fmt(std::sqrt(a2)) + " m/s^2)");
+  // A step shortened to land on an end time keeps the label of the condition
+  // that limits the flow itself.
+  last_limit_ = limit;
+  return dt_cap > 0 ? std::min(dt, dt_cap) : dt;
 }
 
 void Solver::compute_forces() { (this->*eval_fn_)(); }
@@ -110,8 +166,14 @@ void Solver::compute_forces() { (this->*eval_fn_)(); }
 // --- phases -----------------------------------------------------------------
 
 template <unsigned F>
-void Solver::step_impl(Real dt) {
+void Solver::step_impl(Real dt, Real dt_cap) {
   evaluate_impl<F>();
+  if (dt > 0) {
+    last_limit_ = TimeStepLimit::kFixed;
+  } else {
+    dt = choose_dt(dt_cap);
+  }
+  last_dt_ = dt;
   integrate<F>(dt);
   mark(kIntegrate);
   remove_outside_domain();

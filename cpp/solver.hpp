@@ -41,6 +41,13 @@ class Solver {
 
   // Advance n steps of size dt (seed 4.3).
   void step(Real dt, int n = 1);
+  // Advance n steps, each with the largest stable dt (SimParams: cfl, ...).
+  void step_adaptive(int n = 1);
+  // Adaptive steps until time() reaches t_end (the last step is shortened to
+  // land on it) or max_steps were taken; returns the number of steps.
+  std::int64_t advance_adaptive(Real t_end, std::int64_t max_steps);
+  Real last_dt() const { return last_dt_; }
+  TimeStepLimit last_limit() const { return last_limit_; }
   // Density, pressure and acceleration for the current state; nothing moves
   // (storage may be re-ordered, as in every step).
   void compute_forces();
@@ -65,7 +72,9 @@ class Solver {
   }
 
  private:
-  template <unsigned F> void step_impl(Real dt);
+  // dt > 0: a fixed step; otherwise the adaptive one, at most dt_cap when > 0.
+  template <unsigned F> void step_impl(Real dt, Real dt_cap);
+  Real choose_dt(Real dt_cap);
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
@@ -75,7 +84,7 @@ class Solver {
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
                    const std::vector<Id>& ids) const;
 
-  using StepFn = void (Solver::*)(Real);
+  using StepFn = void (Solver::*)(Real, Real);
   using EvalFn = void (Solver::*)();
 
   SimParams params_;
@@ -106,6 +115,8 @@ class Solver {
   std::chrono::steady_clock::time_point mark_;
 
   Real time_ = 0;
+  Real last_dt_ = 0;
+  TimeStepLimit last_limit_ = TimeStepLimit::kFixed;
   std::int64_t step_count_ = 0;
   std::int64_t removed_ = 0;
 };

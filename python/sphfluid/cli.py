@@ -127,17 +127,21 @@ def _run(args) -> int:
             print(f"error: cannot write to {args.out}: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
     sim = Simulation(scene, threads=args.threads)
-    dt = scene.time_step
-    total = int(math.ceil(duration / dt - 1e-9))
     every = args.every if args.every is not None else 1.0 / 30.0
-    frame_steps = max(1, int(round(every / dt))) if args.out else None
-    sample = max(1, min(100, total))
+    step_text = ("adaptive dt (cfl " + f"{scene.cfl:g})" if sim.adaptive
+                 else f"dt {scene.time_step:g} s, "
+                      f"{int(math.ceil(duration / scene.time_step - 1e-9)):,} steps")
     print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
-          f"{len(scene.walls)} walls, method {scene.method}, dt {dt:g} s, {total:,} steps "
-          f"to t = {duration:g} s, {sim.threads} thread(s)", file=sys.stderr)
-    bar = None if args.quiet else _ProgressBar(total)
+          f"{len(scene.walls)} walls, method {scene.method}, {step_text} to t = {duration:g} s, "
+          f"{sim.threads} thread(s)", file=sys.stderr)
+    # Stop at 100 sample times (progress, density error) and at every frame time.
+    samples = {round(duration * k / 100, 12) for k in range(1, 101)}
+    frame_times = set()
+    if args.out:
+        frame_times = {round(every * k, 12) for k in range(1, int(duration / every + 1e-9) + 1)}
+    bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
     frames = 0
-    max_err = 0.0
+    max_err = sim.stats()["max_density_error"]
     particle_steps = 0
     start = time.perf_counter()
 
@@ -150,32 +154,31 @@ def _run(args) -> int:
 
     if args.out:
         write_frame()
-    done = 0
-    while done < total:
-        n = min(sample, total - done)
-        if frame_steps:
-            n = min(n, frame_steps - done % frame_steps)
-        particle_steps += n * sim.n_particles
-        sim.step(n)
-        done += n
+    for target in sorted(samples | frame_times):
+        n_before = sim.n_particles
+        steps = sim.advance_to(target)
+        particle_steps += steps * n_before
         max_err = max(max_err, sim.stats()["max_density_error"])
-        if frame_steps and done % frame_steps == 0:
+        if target in frame_times:
             write_frame()
         if bar:
-            bar.update(done, sim)
+            bar.update(sim.time, sim)
     if bar:
         bar.close()
+    done = sim.step_count
     wall = time.perf_counter() - start
     st = sim.stats()
     print(f"steps               {done:,}")
     print(f"simulated time      {sim.time:.4f} s")
     print(f"wall time           {wall:.2f} s")
+    if sim.adaptive:
+        print(f"mean dt             {sim.time / max(done, 1):.3g} s (last {sim.dt:.3g} s, "
+              f"limited by {sim.dt_limit})")
     print(f"steps/s             {done / max(wall, 1e-9):,.0f}")
     print(f"particle-steps/s    {particle_steps / max(wall, 1e-9):,.0f}")
     print(f"particles           {sim.n_particles:,}")
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
-    print(f"max density error   {max_err:.4f} (max |rho/rho0 - 1|, sampled every "
-          f"{sample} steps)")
+    print(f"max density error   {max_err:.4f} (max |rho/rho0 - 1| over 100 samples)")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
     if args.out:
         print(f"frames              {frames} in {args.out}{os.sep}")

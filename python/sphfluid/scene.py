@@ -27,6 +27,7 @@ DEFAULT_VISCOSITY = 0.0  # Pa s
 DEFAULT_SURFACE_TENSION = 0.0  # N (2D)
 DEFAULT_SMOOTHING_FACTOR = 2.0  # h = factor * spacing
 DEFAULT_RESTITUTION = 1.0  # mirror reflection, as the seed paper describes
+DEFAULT_CFL = 0.4  # CFL factor of the adaptive time step
 # Mueller et al. (2003): threshold l = 7.065 /m at h = 0.0457 m, so l h = 0.323.
 DEFAULT_SURFACE_THRESHOLD_TIMES_H = 0.323
 
@@ -40,7 +41,7 @@ _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "flui
 _DOMAIN_KEYS = ("min", "max")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
-_SOLVER_KEYS = ("method", "time_step", "wall_restitution", "surface_threshold")
+_SOLVER_KEYS = ("method", "time_step", "cfl", "wall_restitution", "surface_threshold")
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),
     "circle": ("shape", "center", "radius", "velocity"),
@@ -112,7 +113,7 @@ class Scene:
     gas_constant: float  # k, m^2/s^2
     spacing: float  # lattice spacing dx, m
     smoothing_length: float  # kernel support h, m
-    time_step: float  # dt, s
+    time_step: float | None  # dt, s; None: adaptive ("auto")
     name: str = ""
     gravity: Point = DEFAULT_GRAVITY  # m/s^2
     viscosity: float = DEFAULT_VISCOSITY  # eta, Pa s
@@ -124,6 +125,7 @@ class Scene:
     duration: float | None = None  # s
     wall_restitution: float = DEFAULT_RESTITUTION
     surface_threshold: float | None = None  # 1/m; None: 0.323 / h
+    cfl: float = DEFAULT_CFL  # CFL factor of the adaptive step
     source: str | None = field(default=None, compare=False)
 
     def lattice_points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -162,13 +164,16 @@ class Scene:
             "resolution": {"spacing": self.spacing, "smoothing_length": self.smoothing_length},
             "fluid_regions": regions,
             "walls": [[list(a), list(b)] for a, b in self.walls],
-            "solver": {"method": self.method, "time_step": self.time_step,
+            "solver": {"method": self.method,
+                       "time_step": "auto" if self.time_step is None else self.time_step,
                        "wall_restitution": self.wall_restitution},
         }
         if self.particle_mass is not None:
             out["resolution"]["particle_mass"] = self.particle_mass
         if self.surface_threshold is not None:
             out["solver"]["surface_threshold"] = self.surface_threshold
+        if self.time_step is None:
+            out["solver"]["cfl"] = self.cfl
         if self.duration is not None:
             out["duration"] = self.duration
         return out
@@ -334,11 +339,22 @@ class _Validator:
             self.fail("solver.method", f"unknown method {json.dumps(method)}{hint}; "
                       f"available: {', '.join(METHODS)}")
         dt = None
-        if "time_step" in solver:
-            dt = self.number(solver["time_step"], "solver.time_step", low=0)
+        adaptive = False
+        if "time_step" not in solver:
+            self.fail("solver.time_step", 'required key is missing (a time step in seconds, '
+                      'e.g. 0.0002, or "auto")')
+        elif solver["time_step"] == "auto":
+            adaptive = True
+        elif isinstance(solver["time_step"], str):
+            self.fail("solver.time_step", f'expected a number of seconds or "auto", got '
+                      f'{json.dumps(solver["time_step"])}')
         else:
-            self.fail("solver.time_step", "required key is missing (the seed method takes a "
-                      "fixed time step in seconds, e.g. 0.0002)")
+            dt = self.number(solver["time_step"], "solver.time_step", low=0)
+        cfl = DEFAULT_CFL
+        if "cfl" in solver:
+            cfl = self.number(solver["cfl"], "solver.cfl", low=0, high=1)
+            if cfl is not None and not adaptive and "time_step" in solver:
+                self.fail("solver.cfl", 'only applies with "time_step": "auto"')
         restitution = DEFAULT_RESTITUTION
         if "wall_restitution" in solver:
             restitution = self.number(solver["wall_restitution"], "solver.wall_restitution",
@@ -411,12 +427,13 @@ class _Validator:
 
         if self.problems:
             raise SceneError(self.problems, self.source)
+        assert adaptive or dt is not None
         scene = Scene(domain_min=lo, domain_max=hi, rest_density=rho0, gas_constant=k,
                       spacing=dx, smoothing_length=h, time_step=dt, name=name,
                       gravity=gravity, viscosity=eta, surface_tension=sigma,
                       particle_mass=mass, regions=tuple(regions), walls=tuple(walls),
                       method=method, duration=duration, wall_restitution=restitution,
-                      surface_threshold=threshold, source=self.source)
+                      surface_threshold=threshold, cfl=cfl, source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)
             if len(pos) == 0:

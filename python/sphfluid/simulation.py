@@ -33,6 +33,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.restitution = scene.wall_restitution
     p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
     p.threads = 0 if threads is None else int(threads)
+    p.cfl = scene.cfl
     return p
 
 
@@ -71,9 +72,21 @@ class Simulation:
 
     # -- stepping
     @property
+    def adaptive(self) -> bool:
+        """True when the scene asks for an adaptive time step ("auto")."""
+        return self.scene.time_step is None
+
+    @property
     def dt(self) -> float:
-        """The time step, s."""
-        return self.scene.time_step
+        """The time step, s: the scene's fixed one, or the last adaptive one."""
+        if not self.adaptive:
+            return self.scene.time_step
+        return self._solver.last_dt
+
+    @property
+    def dt_limit(self) -> str:
+        """What limited the last step: fixed, cfl, force, viscous or dt_max."""
+        return self._solver.last_dt_limit
 
     def step(self, n: int = 1) -> None:
         """Advance n native steps (the GIL is released while they run).
@@ -83,7 +96,22 @@ class Simulation:
         """
         if n < 0:
             raise ValueError(f"n must be >= 0, got {n}")
-        self._solver.step(self.dt, int(n))
+        if self.adaptive:
+            self._solver.step_adaptive(int(n))
+        else:
+            self._solver.step(self.scene.time_step, int(n))
+
+    def advance_to(self, t_end: float) -> int:
+        """Step until the simulated time reaches t_end; returns the steps taken.
+
+        Fixed steps stop at the first step at or past t_end; adaptive ones
+        shorten the last step to land on it.
+        """
+        if self.adaptive:
+            return self._solver.advance_adaptive(float(t_end), 2**62)
+        n = max(0, int(math.ceil((t_end - self.time) / self.scene.time_step - 1e-9)))
+        self.step(n)
+        return n
 
     def run(self, duration: float | None = None, progress: bool = False,
             callback: Callable[[Simulation], None] | None = None,
@@ -99,17 +127,18 @@ class Simulation:
             raise ValueError("no duration given and the scene has no 'duration'")
         if duration < 0:
             raise ValueError(f"duration must be >= 0, got {duration}")
-        total = int(math.ceil(duration / self.dt - 1e-9))
-        chunk = max(1, int(round(every / self.dt))) if every else max(1, min(total, 100))
-        bar = _ProgressBar(total) if progress else None
-        done = 0
-        while done < total:
-            n = min(chunk, total - done)
-            self.step(n)
-            done += n
+        if every is not None and every <= 0:
+            raise ValueError(f"every must be > 0, got {every}")
+        start = self.time
+        chunk = every if every else duration / 100
+        bar = _ProgressBar(duration, self.step_count) if progress else None
+        k = 0
+        while k * chunk < duration * (1 - 1e-12):
+            k += 1
+            self.advance_to(start + min(k * chunk, duration))
             if bar:
-                bar.update(done, self)
-            if callback and every:
+                bar.update(self.time - start, self)
+            if callback:
                 callback(self)
         if bar:
             bar.close()
@@ -206,6 +235,7 @@ class Simulation:
             "time": self.time,
             "step_count": self.step_count,
             "dt": self.dt,
+            "dt_limit": self.dt_limit,
             "method": self.scene.method,
             "n_particles": self.n_particles,
             "removed_particles": self.removed_particles,
@@ -218,27 +248,28 @@ class Simulation:
 
 
 class _ProgressBar:
-    """A one-line progress bar on stderr, redrawn at most ten times a second."""
+    """A one-line progress bar over simulated time on stderr, redrawn at most
+    ten times a second (every five seconds when stderr is not a terminal)."""
 
-    def __init__(self, total: int):
-        self.total = max(total, 1)
+    def __init__(self, total: float, start_step: int = 0):
+        self.total = total if total > 0 else 1.0
+        self.start_step = start_step
         self.start = _time.perf_counter()
         self.last = 0.0
         self.tty = sys.stderr.isatty()
 
-    def update(self, done: int, sim: Simulation) -> None:
+    def update(self, done: float, sim: Simulation) -> None:
         now = _time.perf_counter()
-        if now - self.last < 0.1 and done < self.total:
-            return
-        if not self.tty and now - self.last < 5.0 and done < self.total:
+        finished = done >= self.total * (1 - 1e-9)
+        if now - self.last < (0.1 if self.tty else 5.0) and not finished:
             return
         self.last = now
-        frac = done / self.total
+        frac = min(done / self.total, 1.0)
         elapsed = now - self.start
         eta = elapsed / frac - elapsed if frac > 0 else 0.0
         bar = "#" * int(30 * frac)
-        line = (f"[{bar:<30}] {100 * frac:5.1f}%  t = {sim.time:.4f} s  "
-                f"{done / max(elapsed, 1e-9):,.0f} steps/s  eta {eta:5.1f} s")
+        line = (f"[{bar:<30}] {100 * frac:5.1f}%  t = {sim.time:.4f} s  dt = {sim.dt:.3g} s  "
+                f"{(sim.step_count - self.start_step) / max(elapsed, 1e-9):,.0f} steps/s  eta {eta:5.1f} s")
         sys.stderr.write(("\r" if self.tty else "") + line + ("" if self.tty else "\n"))
         sys.stderr.flush()
 

@@ -92,7 +92,8 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
         g = float(np.hypot(*scene.gravity))
         height = scene.domain_max[1] - scene.domain_min[1]
         vmax = max(1e-6, float(np.sqrt(2 * g * height)) if g > 0 else 1.0)
-        realtime = max(1, int(round(1.0 / (TARGET_FPS * scene.time_step))))
+        # Real time: the scene's dt, or for "auto" a first guess refined as it runs.
+        realtime = max(1, round(1.0 / (TARGET_FPS * (scene.time_step or 1e-3))))
         adaptive = steps_per_frame is None
         n_steps = realtime if adaptive else steps_per_frame
         walls = [cam.to_screen(np.asarray(w)) for w in scene.walls]
@@ -128,6 +129,8 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                     paused = True
                 elapsed = time.perf_counter() - t0
                 step_rate = todo / max(elapsed, 1e-9)
+                if sim.adaptive and sim.dt > 0:
+                    realtime = max(1, round(1.0 / (TARGET_FPS * sim.dt)))
                 if adaptive and not single:
                     n_steps = max(1, min(realtime, int(STEP_BUDGET * step_rate)))
             pixels[:] = BACKGROUND
@@ -137,7 +140,8 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                 pygame.draw.line(screen, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
             status = (f"t = {sim.time:7.3f} s   {clock.get_fps():5.1f} fps   "
                       f"{step_rate:8,.0f} steps/s   {sim.n_particles:,} particles   "
-                      f"{n_steps} steps/frame" + ("   PAUSED" if paused else ""))
+                      f"{n_steps} steps/frame   dt {sim.dt:.2e} s ({sim.dt_limit})"
+                      + ("   PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
             keys = "space pause   S / right: one step   R reset   Q quit"
             screen.blit(font.render(keys, True, (150, 150, 160)), (8, size[1] - 18))
