@@ -62,6 +62,17 @@ void bind_solver(py::module_& m) {
       .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)")
       .def_readwrite("cfl", &SimParams::cfl, "CFL factor of the adaptive time step")
       .def_readwrite("dt_max", &SimParams::dt_max, "cap on the adaptive time step, s (0: none)")
+      .def_readwrite("guard", &SimParams::guard,
+                     "check density, speed and energy after every step (non-finite values "
+                     "are always caught)")
+      .def_readwrite("guard_density_ratio", &SimParams::guard_density_ratio,
+                     "guard: trip when rho > ratio * rho0")
+      .def_readwrite("guard_speed_factor", &SimParams::guard_speed_factor,
+                     "guard: trip when |v| > factor * speed of sound")
+      .def_readwrite("guard_energy_factor", &SimParams::guard_energy_factor,
+                     "guard: trip when kinetic energy > factor * energy budget")
+      .def_readwrite("max_retries", &SimParams::max_retries,
+                     "on a trip, retry the step with dt/2, dt/4, ... this many times")
       .def_property_readonly("sound_speed", &SimParams::sound_speed,
                              "speed of sound of the method's EOS, m/s");
 
@@ -86,6 +97,12 @@ void bind_solver(py::module_& m) {
            "Adaptive steps until time reaches t_end (landing on it) or max_steps; "
            "returns the number of steps taken.")
       .def_property_readonly("last_dt", &Solver::last_dt, "time step of the last step, s")
+      .def_property_readonly("energy_budget", &Solver::energy_budget,
+                             "energy the scene can supply, J per m of depth (guard)")
+      .def_property_readonly("retried_steps", &Solver::retried_steps,
+                             "steps retried with a halved time step")
+      .def_property_readonly("retry_log", &Solver::retry_log,
+                             "messages of the most recent retries, oldest first")
       .def_property_readonly(
           "last_dt_limit", [](const Solver& s) { return std::string(limit_name(s.last_limit())); },
           "what limited the last step: fixed, cfl, force, viscous or dt_max (a step shortened "

@@ -64,6 +64,14 @@ struct SimParams {
   static constexpr Real kForceFactor = 0.25;
   static constexpr Real kViscousFactor = 0.125;
 
+  // Blow-up guard, checked after every step; a trip raises InstabilityError
+  // and leaves the state of the step before.
+  bool guard = true;  // false: only non-finite values are caught (for measuring its cost)
+  Real guard_density_ratio = 3.0;  // rho > ratio * rho0
+  Real guard_speed_factor = 10.0;  // |v| > factor * sound speed
+  Real guard_energy_factor = 2.0;  // kinetic energy > factor * what the scene can supply
+  int max_retries = 0;  // on a trip: retry with dt / 2, dt / 4, ... this many times
+
   // Speed of sound of the seed's EOS p = k (rho - rho0): c^2 = dp/drho = k.
   Real sound_speed() const { return std::sqrt(k); }
 

@@ -46,6 +46,15 @@ class Field {
     buf_.swap(tmp_);
   }
 
+  // A buffer of n entries to write a new version of the field into, without
+  // touching the current one; commit_write() makes it current.
+  T* begin_write(std::size_t n) {
+    if (!tmp_ || tmp_.use_count() > 1) tmp_ = std::make_shared<Buffer>();
+    tmp_->resize(n);
+    return tmp_->data();
+  }
+  void commit_write() { buf_.swap(tmp_); }
+
   // Keep the entries whose keep[i] is true, in order; returns how many remain.
   std::size_t compact(const std::vector<char>& keep) {
     detach();

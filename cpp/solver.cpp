@@ -50,6 +50,11 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   require(std::isfinite(P.ghost_density_ratio) && P.ghost_density_ratio > 0,
           "ghost density ratio must be > 0");
   require(P.threads >= 0, "threads must be >= 0");
+  require(std::isfinite(P.cfl) && P.cfl > 0 && P.cfl <= 1, "cfl must be in (0, 1]");
+  require(std::isfinite(P.dt_max) && P.dt_max >= 0, "dt_max must be >= 0");
+  require(P.guard_density_ratio > 1 && P.guard_speed_factor > 0 && P.guard_energy_factor > 0,
+          "guard limits must be positive (density ratio > 1)");
+  require(P.max_retries >= 0 && P.max_retries <= 20, "max_retries must be in [0, 20]");
   threads_ = resolve_threads(P.threads);
   walls_ = WallSet(std::move(walls), P.h);
 
@@ -98,17 +103,75 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
   }
   remove_outside_domain();
   compute_forces();
+  compute_energy_budget();
+}
+
+void Solver::compute_energy_budget() {
+  const Index n = size();
+  const SimParams& P = params_;
+  const Real m = P.mass;
+  Real kinetic = 0, elastic = 0;
+  Vec2 centre = Vec2::Zero();
+  for (Index i = 0; i < n; ++i) {
+    kinetic += 0.5 * m * ps_.v[i].squaredNorm();
+    centre += ps_.x[i];
+    // Elastic energy of p = k (rho - rho0): k (ln(rho/rho0) + rho0/rho - 1) per kg.
+    const Real r = ps_.rho[i] / P.rho0;
+    elastic += m * P.k * (std::log(r) + 1 / r - 1);
+  }
+  Real release = 0;  // the most gravity can give: the centre of mass at the domain's far corner
+  if (n > 0) {
+    centre /= n;
+    for (const Vec2& c : {P.domain_min, P.domain_max, Vec2(P.domain_min.x(), P.domain_max.y()),
+                         Vec2(P.domain_max.x(), P.domain_min.y())})
+      release = std::max(release, n * m * P.gravity.dot(c - centre));
+  }
+  const Real surface = P.sigma * n * P.h;  // sigma times a perimeter longer than any possible
+  const Real c = P.sound_speed();
+  const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
+  energy_budget_ = kinetic + release + elastic + surface + floor;
 }
 
 void Solver::step(Real dt, int n) {
   require(std::isfinite(dt) && dt > 0, "time step must be > 0");
   require(n >= 0, "number of steps must be >= 0");
-  for (int s = 0; s < n; ++s) (this->*step_fn_)(dt, 0);
+  for (int s = 0; s < n; ++s) guarded_step(dt, 0);
 }
 
 void Solver::step_adaptive(int n) {
   require(n >= 0, "number of steps must be >= 0");
-  for (int s = 0; s < n; ++s) (this->*step_fn_)(0, 0);
+  for (int s = 0; s < n; ++s) guarded_step(0, 0);
+}
+
+// A trip leaves the state of the step before, so the step can be retried as
+// 2, 4, 8, ... steps of dt/2, dt/4, dt/8, ... (on_instability: "retry").
+void Solver::guarded_step(Real dt, Real dt_cap) {
+  try {
+    (this->*step_fn_)(dt, dt_cap);
+    return;
+  } catch (const InstabilityError& first) {
+    if (params_.max_retries == 0) throw;
+    const Real full = dt > 0 ? dt : last_dt_;
+    const Real t_end = time_ + full;
+    std::string reason = first.what();
+    for (int level = 1; level <= params_.max_retries; ++level) {
+      const std::int64_t parts = std::int64_t(1) << level;
+      const Real sub = full / static_cast<Real>(parts);
+      if (retry_log_.size() == kRetryLog) retry_log_.erase(retry_log_.begin());
+      retry_log_.push_back("retrying with dt = " + fmt(sub) + " s after: " + reason);
+      ++retried_steps_;
+      try {
+        // Sub-steps keep whatever they completed; the last one lands on t_end.
+        while (t_end - time_ > 1e-12 * std::max(Real(1), std::abs(t_end)))
+          (this->*step_fn_)(std::min(sub, t_end - time_), 0);
+        return;
+      } catch (const InstabilityError& again) {
+        reason = again.what();
+      }
+    }
+    throw InstabilityError(reason + " (gave up after " + std::to_string(params_.max_retries) +
+                           " retries with halved time steps)");
+  }
 }
 
 std::int64_t Solver::advance_adaptive(Real t_end, std::int64_t max_steps) {
@@ -117,7 +180,7 @@ std::int64_t Solver::advance_adaptive(Real t_end, std::int64_t max_steps) {
   std::int64_t taken = 0;
   // Stop when the rest is below round-off of the time itself.
   while (taken < max_steps && t_end - time_ > 1e-12 * std::max(Real(1), std::abs(t_end))) {
-    (this->*step_fn_)(0, t_end - time_);
+    guarded_step(0, t_end - time_);
     ++taken;
   }
   return taken;
@@ -313,40 +376,82 @@ void Solver::compute_accelerations() {
   }
 }
 
-// Semi-implicit Euler, then the wall collision of the same particle (4.2).
+// Semi-implicit Euler, then the wall collision of the same particle (4.2),
+// written into fresh buffers; the guard then checks the new state (non-finite
+// values, density, speed, kinetic energy) and only a good one replaces the old.
 template <unsigned F>
 void Solver::integrate(Real dt) {
   const Index n = size();
-  Vec2* x = ps_.x.data();
-  Vec2* v = ps_.v.data();
+  const Vec2* x = ps_.x.data();
+  const Vec2* v = ps_.v.data();
   const Vec2* a = ps_.a.data();
+  const Real* rho = ps_.rho.data();
+  Vec2* x_new = ps_.x.begin_write(n);
+  Vec2* v_new = ps_.v.begin_write(n);
   [[maybe_unused]] const Real e = params_.restitution;
+  const Real inf = std::numeric_limits<Real>::infinity();
+  const bool guard = params_.guard;
+  const Real rho_max = guard ? params_.guard_density_ratio * params_.rho0 : inf;
+  const Real v_max = params_.guard_speed_factor * params_.sound_speed();
+  const Real v2_max = guard ? v_max * v_max : inf;
   bool bad = false;
-#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
+  Real v2_sum = 0;
+#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad) \
+    reduction(+ : v2_sum)
   for (Index i = 0; i < n; ++i) {
     const Vec2 x_old = x[i];
     Vec2 vi = v[i] + dt * a[i];
     Vec2 xi = x_old + dt * vi;
-    if (!(xi.allFinite() && vi.allFinite())) {
-      bad = true;  // leave the particle at its last finite state; reported below
-      continue;
-    }
-    if constexpr ((F & kWalls) != 0) walls_.collide(x_old, xi, vi, e);
-    x[i] = xi;
-    v[i] = vi;
+    if constexpr ((F & kWalls) != 0)
+      if (xi.allFinite() && vi.allFinite()) walls_.collide(x_old, xi, vi, e);
+    const Real v2 = vi.squaredNorm();
+    // Written so that NaN fails every comparison and so trips.
+    bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max);
+    v2_sum += v2;
+    x_new[i] = xi;
+    v_new[i] = vi;
   }
-  if (!bad) return;
+  const Real kinetic = 0.5 * params_.mass * v2_sum;
+  if (bad || (guard && !(kinetic <= params_.guard_energy_factor * energy_budget_)))
+    trip(dt, x_new, v_new, kinetic);
+  ps_.x.commit_write();
+  ps_.v.commit_write();
+}
+
+// Names the step, the time, the first particle that failed and the check.
+void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, Real kinetic) const {
+  const Index n = size();
+  const Real rho0 = params_.rho0, c = params_.sound_speed();
+  const std::string where = "step " + std::to_string(step_count_ + 1) + " (t = " +
+                            fmt(time_ + dt) + " s): particle id ";
   for (Index i = 0; i < n; ++i) {
-    const Vec2 vi = v[i] + dt * a[i];
-    const Vec2 xi = x[i] + dt * vi;
-    if (xi.allFinite() && vi.allFinite()) continue;
-    throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " +
-                           fmt(time_ + dt) + " s): particle id " + std::to_string(ps_.id[i]) +
-                           " got a non-finite velocity or position (acceleration " +
-                           fmt(a[i]) + " m/s^2, density " + fmt(ps_.rho[i]) +
-                           " kg/m^3, pressure " + fmt(ps_.p[i]) + " Pa, position " +
-                           fmt(x[i]) + ", velocity " + fmt(v[i]) + ")");
+    const std::string who = where + std::to_string(ps_.id[i]);
+    const std::string numbers = " (acceleration " + fmt(ps_.a[i]) + " m/s^2, density " +
+                                fmt(ps_.rho[i]) + " kg/m^3, pressure " + fmt(ps_.p[i]) +
+                                " Pa, position " + fmt(ps_.x[i]) + ", velocity " +
+                                fmt(ps_.v[i]) + ")";
+    if (!(x_new[i].allFinite() && v_new[i].allFinite()))
+      throw InstabilityError(who + " got a non-finite velocity or position [check: finite]" +
+                             numbers);
+    if (!params_.guard) continue;
+    if (!(ps_.rho[i] <= params_.guard_density_ratio * rho0))
+      throw InstabilityError(who + ": density " + fmt(ps_.rho[i]) + " kg/m^3 is over " +
+                             fmt(params_.guard_density_ratio) + " rho0 [check: density]" +
+                             numbers);
+    const Real speed = v_new[i].norm();
+    if (!(speed <= params_.guard_speed_factor * c))
+      throw InstabilityError(who + ": speed " + fmt(speed) + " m/s is over " +
+                             fmt(params_.guard_speed_factor) + " times the speed of sound " +
+                             fmt(c) + " m/s [check: speed]" + numbers);
   }
+  Index fastest = 0;
+  for (Index i = 1; i < n; ++i)
+    if (v_new[i].squaredNorm() > v_new[fastest].squaredNorm()) fastest = i;
+  throw InstabilityError(
+      where + std::to_string(n > 0 ? ps_.id[fastest] : -1) + " is the fastest at " +
+      fmt(n > 0 ? v_new[fastest].norm() : 0) + " m/s: the kinetic energy " + fmt(kinetic) +
+      " J/m exceeds " + fmt(params_.guard_energy_factor) + " times all the energy the scene " +
+      "can supply (" + fmt(energy_budget_) + " J/m) [check: energy]");
 }
 
 void Solver::remove_outside_domain() {

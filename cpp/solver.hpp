@@ -47,6 +47,13 @@ class Solver {
   // land on it) or max_steps were taken; returns the number of steps.
   std::int64_t advance_adaptive(Real t_end, std::int64_t max_steps);
   Real last_dt() const { return last_dt_; }
+  // The energy the scene can supply (J per m of depth): kinetic + the most
+  // gravity can release within the domain + the EOS's elastic energy + a
+  // surface-energy bound; set when the particles are set.
+  Real energy_budget() const { return energy_budget_; }
+  std::int64_t retried_steps() const { return retried_steps_; }
+  // Messages of the most recent retries (at most kRetryLog), oldest first.
+  const std::vector<std::string>& retry_log() const { return retry_log_; }
   TimeStepLimit last_limit() const { return last_limit_; }
   // Density, pressure and acceleration for the current state; nothing moves
   // (storage may be re-ordered, as in every step).
@@ -75,6 +82,10 @@ class Solver {
   // dt > 0: a fixed step; otherwise the adaptive one, at most dt_cap when > 0.
   template <unsigned F> void step_impl(Real dt, Real dt_cap);
   Real choose_dt(Real dt_cap);
+  // One step (fixed dt > 0, or adaptive), retried with halved dt on a trip.
+  void guarded_step(Real dt, Real dt_cap);
+  void compute_energy_budget();
+  [[noreturn]] void trip(Real dt, const Vec2* x_new, const Vec2* v_new, Real kinetic) const;
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
@@ -113,6 +124,11 @@ class Solver {
   }
   std::array<double, kNumPhases> phase_seconds_{};
   std::chrono::steady_clock::time_point mark_;
+
+  static constexpr std::size_t kRetryLog = 100;
+  Real energy_budget_ = 0;
+  std::int64_t retried_steps_ = 0;
+  std::vector<std::string> retry_log_;
 
   Real time_ = 0;
   Real last_dt_ = 0;

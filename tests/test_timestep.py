@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-
 import sphfluid
 from sphfluid import _core
 

@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args) -> int:
     from .scene import load_scene
-    from .simulation import Simulation, _ProgressBar
+    from .simulation import InstabilityError, Simulation, _ProgressBar
 
     scene = load_scene(args.scene)
     duration = args.duration if args.duration is not None else scene.duration
@@ -154,9 +154,28 @@ def _run(args) -> int:
 
     if args.out:
         write_frame()
+    retries_seen = 0
     for target in sorted(samples | frame_times):
         n_before = sim.n_particles
-        steps = sim.advance_to(target)
+        try:
+            steps = sim.advance_to(target)
+        except InstabilityError:
+            if bar:
+                bar.close()
+            saved = (args.out / "last_good_state.npz" if args.out
+                     else Path(f"{Path(args.scene).stem}.last_good_state.npz"))
+            try:
+                sim.save_state(saved)
+                print(f"the last good state (t = {sim.time:.6g} s, step {sim.step_count}) is "
+                      f"saved in {saved}", file=sys.stderr)
+            except OSError as e:
+                print(f"could not save the last good state: {e}", file=sys.stderr)
+            raise
+        if sim.retried_steps > retries_seen:
+            new = sim.retried_steps - retries_seen
+            for line in sim.retry_log[-min(new, 100):]:
+                print(f"warning: {line}", file=sys.stderr)
+            retries_seen = sim.retried_steps
         particle_steps += steps * n_before
         max_err = max(max_err, sim.stats()["max_density_error"])
         if target in frame_times:
@@ -180,6 +199,8 @@ def _run(args) -> int:
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
     print(f"max density error   {max_err:.4f} (max |rho/rho0 - 1| over 100 samples)")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
+    if sim.retried_steps:
+        print(f"retried steps       {sim.retried_steps} (with halved time steps)")
     if args.out:
         print(f"frames              {frames} in {args.out}{os.sep}")
     return 0

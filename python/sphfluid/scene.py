@@ -41,7 +41,9 @@ _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "flui
 _DOMAIN_KEYS = ("min", "max")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
-_SOLVER_KEYS = ("method", "time_step", "cfl", "wall_restitution", "surface_threshold")
+_SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitution",
+                "surface_threshold")
+ON_INSTABILITY = ("stop", "retry")
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),
     "circle": ("shape", "center", "radius", "velocity"),
@@ -126,6 +128,7 @@ class Scene:
     wall_restitution: float = DEFAULT_RESTITUTION
     surface_threshold: float | None = None  # 1/m; None: 0.323 / h
     cfl: float = DEFAULT_CFL  # CFL factor of the adaptive step
+    on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     source: str | None = field(default=None, compare=False)
 
     def lattice_points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -174,6 +177,8 @@ class Scene:
             out["solver"]["surface_threshold"] = self.surface_threshold
         if self.time_step is None:
             out["solver"]["cfl"] = self.cfl
+        if self.on_instability != "stop":
+            out["solver"]["on_instability"] = self.on_instability
         if self.duration is not None:
             out["duration"] = self.duration
         return out
@@ -359,6 +364,10 @@ class _Validator:
         if "wall_restitution" in solver:
             restitution = self.number(solver["wall_restitution"], "solver.wall_restitution",
                                       low=0, strict=False, high=1)
+        on_instability = solver.get("on_instability", "stop")
+        if on_instability not in ON_INSTABILITY:
+            self.fail("solver.on_instability", f'expected "stop" or "retry", got '
+                      f"{json.dumps(on_instability)}")
         threshold = None
         if "surface_threshold" in solver:
             threshold = self.number(solver["surface_threshold"], "solver.surface_threshold",
@@ -433,7 +442,8 @@ class _Validator:
                       gravity=gravity, viscosity=eta, surface_tension=sigma,
                       particle_mass=mass, regions=tuple(regions), walls=tuple(walls),
                       method=method, duration=duration, wall_restitution=restitution,
-                      surface_threshold=threshold, cfl=cfl, source=self.source)
+                      surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
+                      source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)
             if len(pos) == 0:

@@ -15,6 +15,7 @@ from . import _core
 from .scene import Scene, load_scene
 
 InstabilityError = _core.InstabilityError
+RETRIES = 5  # on_instability "retry": dt/2, dt/4, ... dt/32 before giving up
 
 
 def _params(scene: Scene, threads: int | None) -> _core.SimParams:
@@ -34,6 +35,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
     p.threads = 0 if threads is None else int(threads)
     p.cfl = scene.cfl
+    p.max_retries = RETRIES if scene.on_instability == "retry" else 0
     return p
 
 
@@ -91,8 +93,12 @@ class Simulation:
     def step(self, n: int = 1) -> None:
         """Advance n native steps (the GIL is released while they run).
 
-        Raises InstabilityError, naming the step, the particle and the numbers,
-        when a step produces non-finite values.
+        After every step a guard checks for non-finite values, a density over
+        3 rho0, a speed over 10 times the speed of sound, and kinetic energy over
+        twice what the scene can supply. A trip raises InstabilityError naming
+        the step, the time, the particle, the check and the numbers, and leaves
+        the state of the step before (unless the scene says
+        "on_instability": "retry": then the step is retried with dt/2, dt/4, ...).
         """
         if n < 0:
             raise ValueError(f"n must be >= 0, got {n}")
@@ -220,6 +226,22 @@ class Simulation:
         return self._solver.walls
 
     @property
+    def retried_steps(self) -> int:
+        """Steps retried with a halved time step (on_instability: "retry")."""
+        return self._solver.retried_steps
+
+    @property
+    def retry_log(self) -> list[str]:
+        """What each recent retry was for, oldest first (at most 100)."""
+        return list(self._solver.retry_log)
+
+    def save_state(self, path) -> None:
+        """Write the current state (after a trip: the last good one) as .npz."""
+        np.savez(path, time=self.time, step_count=self.step_count, positions=self.positions,
+                 velocities=self.velocities, densities=self.densities,
+                 pressures=self.pressures, accelerations=self.accelerations, ids=self.ids)
+
+    @property
     def removed_particles(self) -> int:
         """Particles removed for leaving the domain."""
         return self._solver.removed_particles
@@ -244,6 +266,8 @@ class Simulation:
             "max_density_error": float(err.max()) if len(err) else 0.0,
             "mean_density_error": float(err.mean()) if len(err) else 0.0,
             "neighbour_pairs": self._solver.neighbour_pairs,
+            "retried_steps": self.retried_steps,
+            "energy_budget": self._solver.energy_budget,  # J per m depth, for the guard
         }
 
 
