@@ -122,7 +122,8 @@ def test_a_path_never_leaves_a_closed_box(x0, y0, dx, dy, e):
     start = np.array([x0, y0])
     end, v = collide(V_IN_BOX, start, start + [dx, dy], [dx, dy], e)
     assert 0.0 <= end[0] <= 1.0 and 0.0 <= end[1] <= 1.0
-    assert np.linalg.norm(v) <= np.hypot(dx, dy) * (1 + 1e-12)
+    # Reflection never adds speed (up to round-off, which is coarse for subnormal speeds).
+    assert np.linalg.norm(v) <= np.hypot(dx, dy) * (1 + 1e-12) + 1e-150
 
 
 @settings(max_examples=300, deadline=None)
