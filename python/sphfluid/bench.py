@@ -54,6 +54,34 @@ def front_error(sim: Simulation, a: float = 1.0) -> tuple[float, float, float]:
     return t_star, z, float(np.interp(t_star, MM_T, MM_Z))
 
 
+def guard_cost(n_target: int, steps: int, repeats: int) -> dict:
+    """Step time with and without the guard's checks, interleaved runs on 1 thread."""
+    import statistics
+
+    from . import simulation
+
+    walls: dict[bool, list[float]] = {True: [], False: []}
+    phase: dict[bool, list[float]] = {True: [], False: []}
+    for _ in range(repeats):
+        for on in (True, False):
+            sim = Simulation(dam_break_scene(n_target), threads=1)
+            params = simulation._params(sim.scene, 1)
+            params.guard = on
+            pos, vel = sim.scene.lattice_points()
+            sim._solver = _core.Solver(params, pos, vel, simulation._wall_array(sim.scene))
+            sim.step(50)
+            sim._solver.reset_phase_seconds()
+            start = time.perf_counter()
+            sim.step(steps)
+            walls[on].append((time.perf_counter() - start) / steps)
+            phase[on].append(sim._solver.phase_seconds()["integrate"] / steps)
+    med = {k: statistics.median(v) for k, v in walls.items()}
+    ph = {k: statistics.median(v) for k, v in phase.items()}
+    return {"step_on": med[True], "step_off": med[False], "integrate_on": ph[True],
+            "integrate_off": ph[False],
+            "cost_fraction": (ph[True] - ph[False]) / med[True]}
+
+
 def machine() -> str:
     cpu = platform.processor() or platform.machine()
     try:
@@ -126,22 +154,28 @@ def table(rows: list[dict], command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-BEGIN = "<!-- sphfluid bench: begin -->"
-END = "<!-- sphfluid bench: end -->"
-
-
-def write_section(path: Path, text: str) -> None:
-    """Replace the bench section of a Markdown file (or append one)."""
-    block = f"{BEGIN}\n{text}{END}\n"
+def write_section(path: Path, text: str, tag: str = "bench") -> None:
+    """Replace the generated section `tag` of a Markdown file (or append one)."""
+    begin, end = f"<!-- sphfluid {tag}: begin -->", f"<!-- sphfluid {tag}: end -->"
+    block = f"{begin}\n{text}{end}\n"
     old = path.read_text() if path.exists() else ""
-    if BEGIN in old and END in old:
-        new = old[:old.index(BEGIN)] + block + old[old.index(END) + len(END) + 1:]
+    if begin in old and end in old:
+        new = old[:old.index(begin)] + block + old[old.index(end) + len(end) + 1:]
     else:
         new = old + ("\n" if old and not old.endswith("\n") else "") + block
     path.write_text(new)
 
 
 def main(args) -> int:
+    if args.guard_cost:
+        g = guard_cost(args.particles, args.steps, args.repeat)
+        print(f"dam break, {args.particles:,} particles, 1 thread, median of {args.repeat} "
+              f"interleaved runs of {args.steps} steps:\n"
+              f"  step {1e6 * g['step_on']:.0f} us with the guard, {1e6 * g['step_off']:.0f} us "
+              f"without\n  integrate phase {1e6 * g['integrate_on']:.1f} us with, "
+              f"{1e6 * g['integrate_off']:.1f} us without\n"
+              f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
+        return 0
     try:
         threads = [int(t) for t in str(args.threads).split(",")]
         if not threads or min(threads) < 1:

@@ -44,7 +44,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{run,view,bench}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{run,view,bench,stress}")
 
     r = sub.add_parser("run", help="simulate a scene headless",
                        description="Simulate a scene without a window and print a summary.")
@@ -76,7 +76,18 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
     b.add_argument("--repeat", type=_count, default=3,
                    help="runs per thread count, interleaved; the median is reported")
-    b.add_argument("--write", type=Path, help="append the table to this Markdown file")
+    b.add_argument("--write", type=Path, help="write the table into this Markdown file")
+    b.add_argument("--guard-cost", action="store_true",
+                   help="instead: time the step with and without the blow-up guard")
+    s = sub.add_parser("stress", help="stability matrix and violent scenes",
+                       description="Sweep k x dt for the seed method on the dam break and the "
+                                   "splash (fixed and adaptive dt), then violent scenes; report "
+                                   "stable / caught by the guard / silent failures.")
+    mode = s.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="small sweep (default, minutes)")
+    mode.add_argument("--full", action="store_true", help="the whole matrix (tens of minutes)")
+    s.add_argument("--out", type=Path, default=Path("."), help="folder for the heat-map PNGs")
+    s.add_argument("--write", type=Path, help="write the table into this Markdown file")
     return p
 
 
@@ -94,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
             from .bench import main as bench_main
 
             return bench_main(args)
+        if args.command == "stress":
+            from .stress import main as stress_main
+
+            return stress_main(args)
     except SceneError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -1,0 +1,321 @@
+"""`sphfluid stress`: a stability matrix and a set of violent scenes.
+
+For the seed method with a fixed dt, a sweep of the gas constant k against dt on
+the dam break and the splash: each run either stays stable for its whole
+duration, is caught by the guard (InstabilityError, with the check that
+tripped), or goes bad silently (particles lost from the domain or outside the
+tank although the guard never tripped: the number that must stay zero). The
+same sweep with the adaptive step, then violent scenes with the adaptive step.
+Writes a table (STABILITY.md) and heat maps (PNG, when matplotlib is present).
+"""
+from __future__ import annotations
+
+import copy
+import datetime
+import math
+import re
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .bench import machine
+from .scene import load_scene
+from .simulation import InstabilityError, Simulation
+
+STABLE, CAUGHT, SILENT = "stable", "caught", "silent"
+
+
+@dataclass
+class Outcome:
+    status: str  # stable | caught | silent
+    detail: str  # the check that tripped, or what went wrong
+    steps: int
+    sim_time: float
+    wall: float
+    lost: int  # particles removed from the domain or outside the container
+
+
+def tank_scene(kind: str, spacing: float, duration: float) -> dict:
+    """The dam break or the splash of scenes/, at a coarser spacing for sweeps."""
+    walls = [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}]
+    if kind == "dam_break":
+        regions = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]}]
+    else:
+        regions = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [4.0, 0.6]},
+                   {"shape": "circle", "center": [2.0, 1.6], "radius": 0.35,
+                    "velocity": [0.0, -2.0]}]
+    return {
+        "format": "sphfluid-scene/1", "name": f"stress {kind}",
+        "domain": {"min": [-0.1, -0.1], "max": [4.1, 3.6]},
+        "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
+        "resolution": {"spacing": spacing, "smoothing_length": 2 * spacing},
+        "fluid_regions": regions, "walls": walls,
+        "solver": {"method": "seed", "time_step": 1e-4}, "duration": duration,
+    }
+
+
+def container(scene: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """Bounding box of the walls, if the scene's walls form its container."""
+    pts = []
+    for w in scene.get("walls", []):
+        pts += w["polyline"] if isinstance(w, dict) else w
+    if not pts:
+        return None
+    p = np.asarray(pts, float)
+    return p.min(axis=0), p.max(axis=0)
+
+
+def run_one(scene: dict, max_wall: float) -> Outcome:
+    sim = Simulation(load_scene(scene))
+    box = container(scene)
+    start = time.perf_counter()
+    status, detail = STABLE, ""
+    end = scene["duration"]
+    try:
+        while sim.time < end * (1 - 1e-12):
+            sim.advance_to(min(end, sim.time + end / 50))
+            if time.perf_counter() - start > max_wall:
+                detail = f"stopped at t = {sim.time:.3g} s (over {max_wall:g} s of wall time)"
+                break
+    except InstabilityError as e:
+        status = CAUGHT
+        m = re.search(r"\[check: (\w+)\]", str(e))
+        detail = m.group(1) if m else "guard"
+    wall = time.perf_counter() - start
+    lost = sim.removed_particles
+    if box is not None and sim.n_particles:
+        lo, hi = box
+        x = sim.positions
+        # Below the floor or beyond a side wall, under the top of the walls.
+        outside = ((x[:, 1] < lo[1]) | (((x[:, 0] < lo[0]) | (x[:, 0] > hi[0]))
+                                        & (x[:, 1] < hi[1])))
+        lost += int(outside.sum())
+    if status == STABLE and lost:
+        status, detail = SILENT, f"{lost} particles lost"
+    return Outcome(status, detail, sim.step_count, sim.time, wall, lost)
+
+
+def sweep(kind: str, ks: list[float], dts: list[float | None], spacing: float,
+          duration: float, max_wall: float, log) -> dict:
+    results = {}
+    for dt in dts:
+        for k in ks:
+            d = tank_scene(kind, spacing, duration)
+            d["fluid"]["gas_constant"] = k
+            d["solver"]["time_step"] = "auto" if dt is None else dt
+            o = run_one(d, max_wall)
+            results[(k, dt)] = o
+            log(f"{kind:9s} k = {k:8.3g}  dt = {'auto' if dt is None else f'{dt:.0e}':>6s}  "
+                f"{o.status:6s} {o.detail:12s} {o.steps:8d} steps  {o.wall:6.1f} s")
+    return results
+
+
+def violent_scenes(tank_steps: int) -> dict[str, dict]:
+    """Scenes meant to break a solver, all with the adaptive step."""
+    base = {"format": "sphfluid-scene/1", "domain": {"min": [-0.2, -0.2], "max": [2.2, 2.2]},
+            "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
+            "resolution": {"spacing": 0.02}, "walls": [],
+            "solver": {"method": "seed", "time_step": "auto"}, "duration": 1.0}
+    box = {"polyline": [[0.0, 2.0], [0.0, 0.0], [2.0, 0.0], [2.0, 2.0]]}
+    out = {}
+
+    d = copy.deepcopy(base)  # a fast jet hitting a wall
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.1, 0.8], "max": [0.5, 1.0],
+                           "velocity": [20.0, 0.0]}]
+    d["walls"] = [box]
+    out["jet at 20 m/s into a wall"] = d
+
+    d = copy.deepcopy(base)  # fluid dropped into a narrow wedge
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.8, 1.2], "max": [1.2, 1.8]}]
+    d["walls"] = [{"polyline": [[0.5, 1.9], [1.0, 0.05], [1.5, 1.9]]}, box]
+    out["drop into a narrow wedge"] = d
+
+    d = copy.deepcopy(base)  # overlapping regions and particles exactly on a wall
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.01, 0.01], "max": [0.61, 0.61]},
+                          {"shape": "rectangle", "min": [0.3, 0.3], "max": [0.9, 0.9]}]
+    d["walls"] = [box, [[0.0, 0.31], [1.0, 0.31]]]  # a wall through lattice points
+    out["particles overlapping and on a wall"] = d
+
+    d = copy.deepcopy(base)  # a very viscous blob
+    d["fluid"]["viscosity"] = 5000.0
+    d["fluid_regions"] = [{"shape": "circle", "center": [1.0, 1.0], "radius": 0.3,
+                           "velocity": [0.0, -3.0]}]
+    d["walls"] = [box]
+    out["very viscous blob (5000 Pa s)"] = d
+
+    d = copy.deepcopy(base)  # strong surface tension, no gravity
+    d["gravity"] = [0.0, 0.0]
+    d["fluid"].update(gas_constant=50.0, viscosity=5.0, surface_tension=200.0)
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.7, 0.7], "max": [1.3, 1.3]}]
+    out["strong surface tension (200 N)"] = d
+
+    d = copy.deepcopy(base)  # a thin-walled container: two walls 1 mm apart
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.05, 0.05], "max": [0.95, 1.5]}]
+    d["walls"] = [box, [[1.0, 0.0], [1.0, 1.9]], [[1.001, 0.0], [1.001, 1.9]]]
+    out["thin-walled container (1 mm)"] = d
+
+    d = copy.deepcopy(base)  # a tank at rest for many steps
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 0.5]}]
+    d["walls"] = [{"polyline": [[0.0, 1.0], [0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]}]
+    d["resolution"] = {"spacing": 0.025}
+    d["fluid"]["viscosity"] = 100.0
+    d["duration"] = None
+    d["tank_steps"] = tank_steps
+    out[f"tank at rest, {tank_steps:,} steps"] = d
+    return out
+
+
+def run_violent(name: str, d: dict, max_wall: float) -> Outcome:
+    steps = d.pop("tank_steps", None)
+    if steps is None:
+        return run_one(d, max_wall)
+    d["duration"] = 1.0
+    sim = Simulation(load_scene(d))
+    start = time.perf_counter()
+    status, detail = STABLE, ""
+    try:
+        done = 0
+        while done < steps:
+            n = min(10_000, steps - done)
+            sim.step(n)
+            done += n
+            if time.perf_counter() - start > max_wall:
+                detail = f"stopped after {done:,} steps (wall time)"
+                break
+    except InstabilityError as e:
+        status = CAUGHT
+        m = re.search(r"\[check: (\w+)\]", str(e))
+        detail = m.group(1) if m else "guard"
+    x = sim.positions
+    outside = int(((x < 0.0) | (x > 1.0)).any(axis=1).sum()) + sim.removed_particles
+    if status == STABLE and outside:
+        status, detail = SILENT, f"{outside} particles lost"
+    if status == STABLE:
+        detail = detail or f"max speed {sim.stats()['max_speed']:.3f} m/s at t = {sim.time:.0f} s"
+    return Outcome(status, detail, sim.step_count, sim.time, time.perf_counter() - start,
+                   outside)
+
+
+def heat_map(results: dict, ks: list[float], dts: list, title: str, path: Path) -> bool:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import ListedColormap
+    except ImportError:
+        return False
+    code = {STABLE: 0, CAUGHT: 1, SILENT: 2}
+    grid = np.array([[code[results[(k, dt)].status] for k in ks] for dt in dts])
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.5 + 0.8 * len(ks)), 1.6 + 0.55 * len(dts)))
+    ax.imshow(grid, cmap=ListedColormap(["#3a9a5b", "#e0a030", "#c0392b"]), vmin=0, vmax=2,
+              aspect="auto", origin="lower")
+    for r, dt in enumerate(dts):
+        for c, k in enumerate(ks):
+            o = results[(k, dt)]
+            label = "ok" if o.status == STABLE else (o.detail if o.status == CAUGHT else "SILENT")
+            ax.text(c, r, label, ha="center", va="center", fontsize=7)
+    ax.set_xticks(range(len(ks)), [f"{k:.0e}" for k in ks], fontsize=8)
+    ax.set_yticks(range(len(dts)), ["auto" if dt is None else f"{dt:.0e}" for dt in dts],
+                  fontsize=8)
+    ax.set_xlabel("gas constant k (m²/s²)")
+    ax.set_ylabel("time step dt (s)")
+    ax.set_title(title + "\ngreen: stable, orange: caught by the guard (check named), "
+                 "red: silent failure", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
+
+
+def main(args) -> int:
+    full = args.full
+    ks = [10.0**e for e in range(0, 8)] if full else [1.0, 1e2, 1e4, 1e6]
+    dts = [1e-5, 1e-4, 1e-3, 1e-2] if full else [1e-4, 1e-3, 1e-2]
+    spacing = 0.04 if full else 0.08
+    duration = 2.0 if full else 0.5
+    max_wall = 600.0 if full else 30.0
+    tank_steps = 1_000_000 if full else 20_000
+    out_dir = args.out
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    start = time.perf_counter()
+    sections = []
+    totals = {STABLE: 0, CAUGHT: 0, SILENT: 0, "runs": 0, "lost": 0}
+
+    def count(res):
+        for o in res.values():
+            totals["runs"] += 1
+            totals[o.status] += 1
+            totals["lost"] += o.lost
+
+    for kind in ("dam_break", "splash"):
+        fixed = sweep(kind, ks, dts, spacing, duration, max_wall, log)
+        auto = sweep(kind, ks, [None], spacing, duration, max_wall, log)
+        count(fixed)
+        count(auto)
+        png = out_dir / f"stability_{kind}.png"
+        drew = heat_map({**fixed, **auto}, ks, dts + [None],
+                        f"seed method, {kind.replace('_', ' ')} (spacing {spacing} m, "
+                        f"{duration} s)", png)
+        rows = ["| dt \\ k | " + " | ".join(f"{k:.0e}" for k in ks) + " |",
+                "|---|" + "---|" * len(ks)]
+        for dt in dts + [None]:
+            res = fixed if dt is not None else auto
+            cells = []
+            for k in ks:
+                o = res[(k, dt)]
+                cells.append("stable" if o.status == STABLE else
+                             f"caught ({o.detail})" if o.status == CAUGHT else
+                             f"**SILENT** ({o.detail})")
+            rows.append(f"| {'auto' if dt is None else f'{dt:.0e}'} | " + " | ".join(cells)
+                        + " |")
+        sections.append(f"### {kind.replace('_', ' ').capitalize()}\n\n" + "\n".join(rows)
+                        + (f"\n\n![{kind}]({png.name})" if drew else "") + "\n")
+
+    violent = {}
+    for name, d in violent_scenes(tank_steps).items():
+        o = run_violent(name, d, max_wall * 4)
+        violent[name] = o
+        log(f"{name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  {o.wall:.1f} s")
+    count(violent)
+    vrows = ["| scene (seed, adaptive dt) | outcome | steps | simulated s | wall s |",
+             "|---|---|---:|---:|---:|"]
+    for name, o in violent.items():
+        vrows.append(f"| {name} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
+                     f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
+
+    command = "sphfluid stress " + ("--full" if full else "--quick") + f" --out {out_dir}"
+    report = "\n".join([
+        f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
+        f"Command: `{command}` ({time.perf_counter() - start:.0f} s).",
+        "",
+        "| runs | stable | caught by the guard | silent failures (goal 0) | particles lost "
+        "(goal 0) |",
+        "|---:|---:|---:|---:|---:|",
+        f"| {totals['runs']} | {totals[STABLE]} | {totals[CAUGHT]} | {totals[SILENT]} | "
+        f"{totals['lost']} |",
+        "",
+        f"Sweeps: seed method, fixed dt and adaptive (`auto`, cfl 0.4), spacing {spacing} m, "
+        f"{duration} s simulated (a run stopped by its {max_wall:g} s wall-time cap counts "
+        "as stable up to where it got, and says so in the log).",
+        "",
+        *sections,
+        "### Violent scenes",
+        "",
+        *vrows,
+        "",
+    ])
+    print(report)
+    if args.write:
+        from .bench import write_section
+
+        write_section(args.write, report, tag="stress")
+        log(f"wrote {args.write}")
+    return 1 if totals[SILENT] else 0
