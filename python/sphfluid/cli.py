@@ -44,7 +44,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{run,view,bench,stress}")
+    sub = p.add_subparsers(dest="command", required=True,
+                           metavar="{run,view,record,bench,stress}")
 
     r = sub.add_parser("run", help="simulate a scene headless",
                        description="Simulate a scene without a window and print a summary.")
@@ -66,6 +67,20 @@ def _parser() -> argparse.ArgumentParser:
                    help="native steps per drawn frame (default: real time at 60 fps)")
     v.add_argument("--size", default="1000x700", help="window size WxH in pixels")
     v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    v.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
+                   default="speed", help="colour mode (keys 1-4 switch it live)")
+
+    rec = sub.add_parser("record", help="render a scene to PNG frames or a GIF",
+                         description="Render frames headless (no display needed).")
+    rec.add_argument("scene", help="scene JSON file")
+    rec.add_argument("--out", type=Path, required=True,
+                     help="a folder for PNG frames, or a .gif file (needs Pillow)")
+    rec.add_argument("--duration", type=_positive, help="simulated seconds (default: the scene's)")
+    rec.add_argument("--fps", type=_positive, default=30.0, help="frames per simulated second")
+    rec.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
+                     default="speed")
+    rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
+    rec.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
 
     b = sub.add_parser("bench", help="time the dam break at ~10k particles",
                        description="Dam break, fixed dt, 1 and 2 threads; prints steps/s and "
@@ -101,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "view":
             return _view(args)
+        if args.command == "record":
+            return _record(args)
         if args.command == "bench":
             from .bench import main as bench_main
 
@@ -221,16 +238,47 @@ def _run(args) -> int:
     return 0
 
 
+def _size(text: str) -> tuple[int, int] | None:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        return None
+    return (w, h) if w >= 100 and h >= 100 else None
+
+
 def _view(args) -> int:
     from .viewer import view
 
-    try:
-        w, h = (int(x) for x in args.size.lower().split("x"))
-        if w < 100 or h < 100:
-            raise ValueError
-    except ValueError:
+    size = _size(args.size)
+    if size is None:
         print(f"error: --size: expected WxH of at least 100x100 pixels, got {args.size!r}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
     return view(args.scene, frames=args.frames, screenshot=args.screenshot,
-                steps_per_frame=args.steps_per_frame, size=(w, h), threads=args.threads)
+                steps_per_frame=args.steps_per_frame, size=size, threads=args.threads,
+                mode=args.mode)
+
+
+def _record(args) -> int:
+    from .simulation import _ProgressBar
+    from .viewer import record
+
+    size = _size(args.size)
+    if size is None:
+        print(f"error: --size: expected WxH of at least 100x100 pixels, got {args.size!r}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    bar = _ProgressBar(1.0)
+
+    def progress(done, total, sim):
+        bar.update(done / total, sim)
+
+    try:
+        n = record(args.scene, args.out, duration=args.duration, fps=args.fps, mode=args.mode,
+                   size=size, threads=args.threads, progress=progress)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    bar.close()
+    print(f"wrote {n} frames to {args.out}")
+    return 0

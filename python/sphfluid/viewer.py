@@ -1,11 +1,12 @@
-"""A pygame window that runs a scene live: particles coloured by speed, walls, status.
+"""A pygame window that runs a scene live, and headless frame recording.
 
-pygame is imported inside ``view`` so that ``import sphfluid`` and headless runs
-never need it or a display. Particles are drawn in bulk from numpy arrays into a
-pixel buffer, never one Python call per particle.
+pygame is imported inside the functions so that ``import sphfluid`` and headless
+runs never need it or a display. Everything per particle is drawn in bulk from
+numpy arrays into a pixel buffer, never one Python call per particle.
 """
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
@@ -17,62 +18,205 @@ from .simulation import InstabilityError, Simulation
 BACKGROUND = (18, 20, 28)
 WALL = (225, 225, 225)
 TEXT = (235, 235, 235)
+DIM = (150, 150, 160)
 TARGET_FPS = 60
 STEP_BUDGET = 0.030  # seconds of stepping per frame before slowing below real time
 
+MODES = ("speed", "pressure", "density", "surface")  # keys 1-4
+MODE_LABELS = {
+    "speed": "speed (m/s)",
+    "pressure": "pressure (kPa)",
+    "density": "density error rho/rho0 - 1 (%)",
+    "surface": "liquid surface",
+}
+HELP = [
+    "space  pause / run",
+    "S or right arrow  one step",
+    "R  reset to the scene",
+    "+ / -  more / fewer steps per frame",
+    "1 speed  2 pressure  3 density error  4 liquid surface",
+    "P  screenshot (PNG)",
+    "Ctrl+S  save the scene as JSON",
+    "H  this help      Q or Esc  quit",
+]
 
-def speed_colours(n: int = 256) -> np.ndarray:
-    """A (n, 3) uint8 colour ramp from slow (deep blue) to fast (white)."""
-    stops = np.array([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250],
-                      [255, 255, 255]], float)
+
+def ramp(stops, n: int = 256) -> np.ndarray:
+    """A (n, 3) uint8 colour ramp through the given RGB stops."""
+    stops = np.asarray(stops, float)
     t = np.linspace(0, len(stops) - 1, n)
     i = np.minimum(t.astype(int), len(stops) - 2)
     f = (t - i)[:, None]
     return (stops[i] * (1 - f) + stops[i + 1] * f).astype(np.uint8)
 
 
-class _Camera:
+SEQUENTIAL = ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250],
+                   [255, 255, 255]])
+DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
+                  [200, 40, 40]])
+
+
+def speed_colours(n: int = 256) -> np.ndarray:
+    """The speed ramp, slow (deep blue) to fast (white)."""
+    return ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250],
+                 [255, 255, 255]], n)
+
+
+class Camera:
     """Maps world coordinates (m, y up) to pixels (y down), fitting the domain."""
 
     def __init__(self, scene: Scene, size: tuple[int, int], margin: int = 10, top: int = 24,
-                 bottom: int = 20):
+                 bottom: int = 20, right: int = 70):
         (x0, y0), (x1, y1) = scene.domain_min, scene.domain_max
         w, h = size
+        free_w = w - 2 * margin - right
         free_h = h - 2 * margin - top - bottom
-        self.scale = min((w - 2 * margin) / (x1 - x0), free_h / (y1 - y0))
-        self.ox = margin + 0.5 * ((w - 2 * margin) - self.scale * (x1 - x0)) - self.scale * x0
+        self.scale = max(1e-9, min(free_w / (x1 - x0), free_h / (y1 - y0)))
+        self.ox = margin + 0.5 * (free_w - self.scale * (x1 - x0)) - self.scale * x0
         self.oy = top + margin + 0.5 * (free_h - self.scale * (y1 - y0)) + self.scale * y1
 
     def to_screen(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return (self.ox + self.scale * xy[..., 0], self.oy - self.scale * xy[..., 1])
 
+    def to_world(self, px: float, py: float) -> tuple[float, float]:
+        return ((px - self.ox) / self.scale, (self.oy - py) / self.scale)
 
-def draw_particles(pixels: np.ndarray, sim: Simulation, cam: _Camera, lut: np.ndarray,
-                   vmax: float) -> None:
-    """Splat every particle as a small disc of its speed colour into pixels (W, H, 3)."""
-    pos = sim.positions
-    if len(pos) == 0:
-        return
-    sx, sy = cam.to_screen(pos)
-    ix = np.rint(sx).astype(np.int64)
-    iy = np.rint(sy).astype(np.int64)
-    speed = np.sqrt((sim.velocities**2).sum(axis=1))
-    colour = lut[np.minimum((speed / vmax * (len(lut) - 1)).astype(np.int64), len(lut) - 1)]
-    radius = max(0, int(round(0.5 * sim.scene.spacing * cam.scale)))
-    w, h = pixels.shape[:2]
-    for dx in range(-radius, radius + 1):
-        for dy in range(-radius, radius + 1):
-            if dx * dx + dy * dy > radius * radius + radius:
-                continue
-            x = ix + dx
-            y = iy + dy
-            ok = (x >= 0) & (x < w) & (y >= 0) & (y < h)
-            pixels[x[ok], y[ok]] = colour[ok]
+
+class Renderer:
+    """Draws a simulation into pygame surfaces in one of the colour modes."""
+
+    def __init__(self, sim: Simulation, size: tuple[int, int], mode: str = "speed"):
+        import pygame
+
+        self.pygame = pygame
+        self.sim = sim
+        self.mode = mode
+        self.font = pygame.font.Font(None, 20)
+        self.resize(size)
+        scene = sim.scene
+        g = float(np.hypot(*scene.gravity))
+        height = scene.domain_max[1] - scene.domain_min[1]
+        self.vmax = float(np.sqrt(2 * g * height)) if g > 0 else 1.0
+        self.pmax = max(1.0, scene.rest_density * g * height)  # Pa
+
+    def resize(self, size: tuple[int, int]) -> None:
+        self.size = size
+        self.camera = Camera(self.sim.scene, size)
+        self.pixels = np.empty((size[0], size[1], 3), np.uint8)
+
+    # -- scalar fields and their colour scales
+    def field(self) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """(values, ramp, low, high) of the current scalar mode."""
+        sim = self.sim
+        if self.mode == "pressure":
+            return sim.pressures / 1000.0, DIVERGING, -self.pmax / 1000.0, self.pmax / 1000.0
+        if self.mode == "density":
+            err = 100.0 * (sim.densities / sim.scene.rest_density - 1.0)
+            return err, DIVERGING, -10.0, 10.0
+        speed = np.sqrt((sim.velocities**2).sum(axis=1))
+        return speed, SEQUENTIAL, 0.0, self.vmax
+
+    def draw(self, surface) -> None:
+        self.pixels[:] = BACKGROUND
+        if self.mode == "surface":
+            self.draw_surface()
+        else:
+            values, lut, low, high = self.field()
+            t = np.clip((values - low) / (high - low), 0.0, 1.0)
+            self.splat_dots(lut[(t * (len(lut) - 1)).astype(np.int64)])
+        self.pygame.surfarray.blit_array(surface, self.pixels)
+        for a, b in self.sim.scene.walls:
+            (sx, sy) = self.camera.to_screen(np.array([a, b]))
+            self.pygame.draw.line(surface, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
+        if self.mode != "surface":
+            self.draw_colour_bar(surface)
+
+    def screen_points(self) -> tuple[np.ndarray, np.ndarray]:
+        sx, sy = self.camera.to_screen(self.sim.positions)
+        return np.rint(sx).astype(np.int64), np.rint(sy).astype(np.int64)
+
+    def splat_dots(self, colour: np.ndarray) -> None:
+        """Each particle as a small disc of its colour (vectorised per offset)."""
+        if self.sim.n_particles == 0:
+            return
+        ix, iy = self.screen_points()
+        radius = max(0, int(round(0.5 * self.sim.scene.spacing * self.camera.scale)))
+        w, h = self.size
+        for dx in range(-radius, radius + 1):
+            for dy in range(-radius, radius + 1):
+                if dx * dx + dy * dy > radius * radius + radius:
+                    continue
+                x, y = ix + dx, iy + dy
+                ok = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+                self.pixels[x[ok], y[ok]] = colour[ok]
+
+    def draw_surface(self) -> None:
+        """The liquid as a smooth body: particles splatted on a coarse grid,
+        blurred, thresholded at half the bulk coverage, shaded by depth."""
+        if self.sim.n_particles == 0:
+            return
+        w, h = self.size
+        cell = max(1, int(round(0.5 * self.sim.scene.spacing * self.camera.scale)))
+        gw, gh = w // cell + 2, h // cell + 2
+        ix, iy = self.screen_points()
+        ok = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
+        grid = np.zeros((gw, gh))
+        np.add.at(grid, (ix[ok] // cell, iy[ok] // cell), 1.0)
+        grid = blur(blur(grid))  # a smooth field from the dots
+        # Normalise by the coverage deep inside the liquid (a high quantile).
+        full = np.quantile(grid[grid > 0], 0.9) if np.any(grid > 0) else 1.0
+        inside = grid > 0.35 * full
+        # Shade: darker with depth below the local surface (distance from the top edge).
+        depth = np.cumsum(inside, axis=1) * cell / max(self.camera.scale, 1e-9)
+        shade = np.clip(depth / 0.5, 0.0, 1.0)  # 0 at the surface, 1 half a metre down
+        top = np.array([120, 200, 255], float)
+        deep = np.array([15, 60, 150], float)
+        rgb = (top[None, None, :] * (1 - shade[..., None]) + deep[None, None, :] * shade[..., None])
+        edge = inside & ~np.roll(inside, 1, axis=1)  # the first cell from above: a bright rim
+        rgb[edge] = [220, 245, 255]
+        img = np.where(inside[..., None], rgb, np.array(BACKGROUND, float)).astype(np.uint8)
+        big = np.repeat(np.repeat(img, cell, axis=0), cell, axis=1)
+        self.pixels[:] = big[:w, :h]
+
+    def draw_colour_bar(self, surface) -> None:
+        values, lut, low, high = self.field()
+        pg = self.pygame
+        x0, y0, bw, bh = self.size[0] - 60, 40, 14, max(40, self.size[1] - 120)
+        bar = np.repeat(lut[::-1][np.linspace(0, len(lut) - 1, bh).astype(int)][None, :, :], bw,
+                        axis=0)
+        surface.blit(pg.surfarray.make_surface(bar), (x0, y0))
+        for frac, val in ((0.0, high), (0.5, 0.5 * (low + high)), (1.0, low)):
+            label = self.font.render(f"{val:.3g}", True, TEXT)
+            surface.blit(label, (x0 + bw + 4, y0 + frac * (bh - 1) - 7))
+        unit = {"speed": "m/s", "pressure": "kPa", "density": "% rho0"}[self.mode]
+        title = self.font.render(unit, True, DIM)
+        surface.blit(title, (x0, y0 - 16))
+
+
+def blur(grid: np.ndarray) -> np.ndarray:
+    """A separable binomial [1 4 6 4 1]/16 blur along both axes, by shifted sums."""
+    k = (1.0, 4.0, 6.0, 4.0, 1.0)
+    for axis in (0, 1):
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (2, 2)
+        g = np.pad(grid, pad)
+        n = grid.shape[axis]
+        grid = sum(w * np.take(g, np.arange(i, i + n), axis=axis) for i, w in enumerate(k)) / 16
+    return grid
+
+
+def save_scene(sim: Simulation, path: Path) -> Path:
+    """Write the simulation's scene (walls and parameters) as JSON that loads again."""
+    data = sim.scene.to_dict()
+    path.write_text(json.dumps(data, indent=2) + "\n")
+    load_scene(path)  # refuse to leave a file behind that does not load
+    return path
 
 
 def view(scene_path: str | Path | Scene, *, frames: int | None = None,
          screenshot: str | Path | None = None, steps_per_frame: int | None = None,
-         size: tuple[int, int] = (1000, 700), threads: int | None = None) -> int:
+         size: tuple[int, int] = (1000, 700), threads: int | None = None,
+         mode: str = "speed") -> int:
     """Open the window and run until closed (or for ``frames`` frames). Returns 0."""
     import os
 
@@ -80,38 +224,42 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
     import pygame
 
     scene = scene_path if isinstance(scene_path, Scene) else load_scene(scene_path)
+    stem = Path(scene.source).stem if scene.source else "scene"
     sim = Simulation(scene, threads=threads)
     pygame.display.init()  # not pygame.init(): no audio device is needed
     pygame.font.init()
     try:
-        screen = pygame.display.set_mode(size)
+        screen = pygame.display.set_mode(size, pygame.RESIZABLE)
         pygame.display.set_caption(f"sphfluid - {scene.name or 'scene'}")
-        font = pygame.font.Font(None, 20)
-        cam = _Camera(scene, size)
-        lut = speed_colours()
-        g = float(np.hypot(*scene.gravity))
-        height = scene.domain_max[1] - scene.domain_min[1]
-        vmax = max(1e-6, float(np.sqrt(2 * g * height)) if g > 0 else 1.0)
-        # Real time: the scene's dt, or for "auto" a first guess refined as it runs.
+        renderer = Renderer(sim, size, mode)
+        font = renderer.font
         realtime = max(1, round(1.0 / (TARGET_FPS * (scene.time_step or 1e-3))))
         adaptive = steps_per_frame is None
         n_steps = realtime if adaptive else steps_per_frame
-        walls = [cam.to_screen(np.asarray(w)) for w in scene.walls]
-        pixels = np.empty((size[0], size[1], 3), np.uint8)
         clock = pygame.time.Clock()
-        paused = False
+        paused = show_help = False
         message = ""
         frame = 0
         step_rate = 0.0
+        draw_ms = 0.0
+        shots = 0
         running = True
         while running:
             single = False
             for event in pygame.event.get():
                 if event.type == pygame.QUIT:
                     running = False
+                elif event.type == pygame.VIDEORESIZE:
+                    size = (max(200, event.w), max(150, event.h))
+                    screen = pygame.display.set_mode(size, pygame.RESIZABLE)
+                    renderer.resize(size)
                 elif event.type == pygame.KEYDOWN:
+                    ctrl = event.mod & pygame.KMOD_CTRL
                     if event.key in (pygame.K_ESCAPE, pygame.K_q):
                         running = False
+                    elif event.key == pygame.K_s and ctrl:
+                        out = save_scene(sim, Path(f"{stem}_saved.json"))
+                        message = f"saved {out}"
                     elif event.key == pygame.K_SPACE:
                         paused = not paused
                     elif event.key in (pygame.K_s, pygame.K_RIGHT):
@@ -119,7 +267,21 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                     elif event.key == pygame.K_r:
                         sim.reset()
                         message = ""
-            todo = 1 if single else (0 if paused or message else n_steps)
+                    elif event.key in (pygame.K_PLUS, pygame.K_EQUALS, pygame.K_KP_PLUS):
+                        adaptive, n_steps = False, n_steps * 2
+                    elif event.key in (pygame.K_MINUS, pygame.K_KP_MINUS):
+                        adaptive, n_steps = False, max(1, n_steps // 2)
+                    elif event.key in (pygame.K_1, pygame.K_2, pygame.K_3, pygame.K_4):
+                        renderer.mode = MODES[event.key - pygame.K_1]
+                    elif event.key == pygame.K_h:
+                        show_help = not show_help
+                    elif event.key == pygame.K_p:
+                        shots += 1
+                        name = f"{stem}_{shots:03d}.png"
+                        pygame.image.save(screen, name)
+                        message = f"saved {name}"
+            unstable = message.startswith("unstable")
+            todo = 1 if single else (0 if paused or unstable else n_steps)
             if todo:
                 t0 = time.perf_counter()
                 try:
@@ -127,26 +289,31 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                 except InstabilityError as e:
                     message = f"unstable: {e}"
                     paused = True
-                elapsed = time.perf_counter() - t0
-                step_rate = todo / max(elapsed, 1e-9)
+                step_rate = todo / max(time.perf_counter() - t0, 1e-9)
                 if sim.adaptive and sim.dt > 0:
                     realtime = max(1, round(1.0 / (TARGET_FPS * sim.dt)))
                 if adaptive and not single:
                     n_steps = max(1, min(realtime, int(STEP_BUDGET * step_rate)))
-            pixels[:] = BACKGROUND
-            draw_particles(pixels, sim, cam, lut, vmax)
-            pygame.surfarray.blit_array(screen, pixels)
-            for sx, sy in walls:
-                pygame.draw.line(screen, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
-            status = (f"t = {sim.time:7.3f} s   {clock.get_fps():5.1f} fps   "
-                      f"{step_rate:8,.0f} steps/s   {sim.n_particles:,} particles   "
-                      f"{n_steps} steps/frame   dt {sim.dt:.2e} s ({sim.dt_limit})"
-                      + ("   PAUSED" if paused else ""))
+            t0 = time.perf_counter()
+            renderer.draw(screen)
+            draw_ms = 1000 * (time.perf_counter() - t0)
+            st = sim.stats()
+            status = (f"t = {sim.time:7.3f} s  {clock.get_fps():5.1f} fps  {step_rate:7,.0f} "
+                      f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
+                      f"  max density error {100 * st['max_density_error']:.1f} %  dt "
+                      f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}  {n_steps} steps/frame"
+                      + ("  PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
-            keys = "space pause   S / right: one step   R reset   Q quit"
-            screen.blit(font.render(keys, True, (150, 150, 160)), (8, size[1] - 18))
+            mx, my = pygame.mouse.get_pos()
+            wx, wy = renderer.camera.to_world(mx, my)
+            footer = (f"{MODE_LABELS[renderer.mode]}   draw {draw_ms:.1f} ms   cursor "
+                      f"({wx:.3f}, {wy:.3f}) m   H: help")
+            screen.blit(font.render(footer, True, DIM), (8, size[1] - 18))
             if message:
-                screen.blit(font.render(message[:160], True, (255, 120, 120)), (8, 24))
+                screen.blit(font.render(message[:170], True, (255, 140, 120)), (8, 24))
+            if show_help:
+                for i, line in enumerate(HELP):
+                    screen.blit(font.render(line, True, TEXT), (30, 60 + 20 * i))
             pygame.display.flip()
             frame += 1
             if frames is not None and frame >= frames:
@@ -157,3 +324,60 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
     finally:
         pygame.quit()
     return 0
+
+
+def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
+           fps: float = 30.0, mode: str = "speed", size: tuple[int, int] = (800, 600),
+           threads: int | None = None, progress=None) -> int:
+    """Render frames headless: a folder of PNGs, or an animated GIF (needs Pillow).
+
+    Returns the number of frames written.
+    """
+    import os
+
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    import pygame
+
+    scene = load_scene(scene_path)
+    duration = duration if duration is not None else scene.duration
+    if duration is None:
+        raise ValueError("no duration given and the scene has no 'duration'")
+    gif = out.suffix.lower() == ".gif"
+    if gif:
+        try:
+            from PIL import Image
+        except ImportError:
+            raise ValueError("writing a GIF needs Pillow (pip install pillow); "
+                             "or give a folder to write PNG frames") from None
+    elif out.suffix:
+        raise ValueError(f"--out: expected a folder for PNG frames or a .gif file, got {out}")
+    sim = Simulation(scene, threads=threads)
+    pygame.display.init()
+    pygame.font.init()
+    try:
+        surface = pygame.Surface(size)
+        renderer = Renderer(sim, size, mode)
+        n_frames = int(duration * fps + 1e-9) + 1
+        images = []
+        if not gif:
+            out.mkdir(parents=True, exist_ok=True)
+        for k in range(n_frames):
+            sim.advance_to(k / fps)
+            surface.fill(BACKGROUND)
+            renderer.draw(surface)
+            label = renderer.font.render(f"t = {sim.time:.3f} s", True, TEXT)
+            surface.blit(label, (8, 5))
+            if gif:
+                raw = pygame.image.tostring(surface, "RGB")
+                images.append(Image.frombytes("RGB", size, raw))
+            else:
+                pygame.image.save(surface, str(out / f"frame_{k:05d}.png"))
+            if progress:
+                progress(k + 1, n_frames, sim)
+        if gif:
+            images[0].save(out, save_all=True, append_images=images[1:],
+                           duration=int(round(1000 / fps)), loop=0)
+    finally:
+        pygame.quit()
+    return n_frames
