@@ -4,7 +4,6 @@ from __future__ import annotations
 import copy
 
 from conftest import BASE_SCENE
-
 from sphfluid.stress import CAUGHT, SILENT, STABLE, run_one, tank_scene
 
 

@@ -11,9 +11,9 @@ from conftest import BASE_SCENE, ROOT
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 pygame = pytest.importorskip("pygame")
 
-import sphfluid  # noqa: E402
-from sphfluid.cli import main  # noqa: E402
-from sphfluid.viewer import BACKGROUND, MODES, Renderer, save_scene  # noqa: E402
+import sphfluid
+from sphfluid.cli import main
+from sphfluid.viewer import BACKGROUND, MODES, Renderer, save_scene
 
 
 @pytest.fixture

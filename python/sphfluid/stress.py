@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import copy
 import datetime
-import math
 import re
 import sys
 import time
@@ -239,7 +238,7 @@ def heat_map(results: dict, ks: list[float], dts: list, title: str, path: Path) 
 
 def main(args) -> int:
     full = args.full
-    ks = [10.0**e for e in range(0, 8)] if full else [1.0, 1e2, 1e4, 1e6]
+    ks = [10.0**e for e in range(8)] if full else [1.0, 1e2, 1e4, 1e6]
     dts = [1e-5, 1e-4, 1e-3, 1e-2] if full else [1e-4, 1e-3, 1e-2]
     spacing = 0.04 if full else 0.08
     duration = 2.0 if full else 0.5
