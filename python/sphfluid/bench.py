@@ -82,6 +82,38 @@ def guard_cost(n_target: int, steps: int, repeats: int) -> dict:
             "cost_fraction": (ph[True] - ph[False]) / med[True]}
 
 
+def draw_times(n_target: int, frames: int, size: tuple[int, int] = (1000, 700)) -> dict:
+    """Milliseconds to draw one frame of the dam break in each colour mode (headless)."""
+    import os
+    import statistics
+
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    import pygame
+
+    from .viewer import MODES, Renderer
+
+    sim = Simulation(dam_break_scene(n_target))
+    sim.run(0.3)  # a broken column: a realistic picture
+    pygame.display.init()
+    pygame.font.init()
+    try:
+        surface = pygame.Surface(size)
+        out = {}
+        for mode in MODES:
+            r = Renderer(sim, size, mode)
+            r.draw(surface)  # warm up: first-use allocations are not per frame
+            times = []
+            for _ in range(frames):
+                start = time.perf_counter()
+                r.draw(surface)
+                times.append(1000 * (time.perf_counter() - start))
+            out[mode] = statistics.median(times)
+    finally:
+        pygame.quit()
+    return {"particles": sim.n_particles, "size": size, "ms": out}
+
+
 def machine() -> str:
     cpu = platform.processor() or platform.machine()
     try:
@@ -167,6 +199,15 @@ def write_section(path: Path, text: str, tag: str = "bench") -> None:
 
 
 def main(args) -> int:
+    if args.draw:
+        d = draw_times(args.particles, 30)
+        budget = 1000 / 60 / 4
+        print(f"drawing the dam break, {d['particles']:,} particles, {d['size'][0]}x"
+              f"{d['size'][1]} pixels, median of 30 frames (budget at 60 fps: a quarter "
+              f"frame = {budget:.1f} ms):")
+        for mode, ms in d["ms"].items():
+            print(f"  {mode:9s} {ms:6.2f} ms  {'within' if ms <= budget else 'OVER'} budget")
+        return 0
     if args.guard_cost:
         g = guard_cost(args.particles, args.steps, args.repeat)
         print(f"dam break, {args.particles:,} particles, 1 thread, median of {args.repeat} "

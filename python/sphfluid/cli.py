@@ -92,6 +92,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--repeat", type=_count, default=3,
                    help="runs per thread count, interleaved; the median is reported")
     b.add_argument("--write", type=Path, help="write the table into this Markdown file")
+    b.add_argument("--draw", action="store_true",
+                   help="instead: time drawing one viewer frame in each colour mode")
     b.add_argument("--guard-cost", action="store_true",
                    help="instead: time the step with and without the blow-up guard")
     s = sub.add_parser("stress", help="stability matrix and violent scenes",

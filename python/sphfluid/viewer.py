@@ -52,6 +52,9 @@ def ramp(stops, n: int = 256) -> np.ndarray:
 
 SEQUENTIAL = ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250],
                    [255, 255, 255]])
+# Liquid surface: 256 depth shades, then the rim colour, then the background.
+SURFACE_LUT = np.vstack([ramp([[120, 200, 255], [15, 60, 150]]),
+                         [[220, 245, 255], list(BACKGROUND)]]).astype(np.uint8)
 DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
                   [200, 40, 40]])
 
@@ -102,7 +105,7 @@ class Renderer:
     def resize(self, size: tuple[int, int]) -> None:
         self.size = size
         self.camera = Camera(self.sim.scene, size)
-        self.pixels = np.empty((size[0], size[1], 3), np.uint8)
+        self.pixels = np.empty((size[0], size[1]), np.uint32)  # packed 0xRRGGBB
 
     # -- scalar fields and their colour scales
     def field(self) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -117,14 +120,14 @@ class Renderer:
         return speed, SEQUENTIAL, 0.0, self.vmax
 
     def draw(self, surface) -> None:
-        self.pixels[:] = BACKGROUND
         if self.mode == "surface":
-            self.draw_surface()
+            self.draw_surface(surface)
         else:
+            self.pixels.fill(pack(BACKGROUND))
             values, lut, low, high = self.field()
             t = np.clip((values - low) / (high - low), 0.0, 1.0)
-            self.splat_dots(lut[(t * (len(lut) - 1)).astype(np.int64)])
-        self.pygame.surfarray.blit_array(surface, self.pixels)
+            self.splat_dots(pack(lut)[(t * (len(lut) - 1)).astype(np.int64)])
+            self.pygame.surfarray.blit_array(surface, self.pixels)
         for a, b in self.sim.scene.walls:
             (sx, sy) = self.camera.to_screen(np.array([a, b]))
             self.pygame.draw.line(surface, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
@@ -136,47 +139,51 @@ class Renderer:
         return np.rint(sx).astype(np.int64), np.rint(sy).astype(np.int64)
 
     def splat_dots(self, colour: np.ndarray) -> None:
-        """Each particle as a small disc of its colour (vectorised per offset)."""
+        """Each particle as a small disc of its colour: one flat-index write per
+        disc offset, with points clamped so no offset leaves the buffer."""
         if self.sim.n_particles == 0:
             return
         ix, iy = self.screen_points()
-        radius = max(0, int(round(0.5 * self.sim.scene.spacing * self.camera.scale)))
         w, h = self.size
+        radius = min(max(0, int(round(0.5 * self.sim.scene.spacing * self.camera.scale))),
+                     (min(w, h) - 1) // 2)
+        visible = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
+        if not visible.all():
+            ix, iy, colour = ix[visible], iy[visible], colour[visible]
+        base = np.clip(ix, radius, w - 1 - radius) * h + np.clip(iy, radius, h - 1 - radius)
+        flat = self.pixels.reshape(-1)
         for dx in range(-radius, radius + 1):
             for dy in range(-radius, radius + 1):
-                if dx * dx + dy * dy > radius * radius + radius:
-                    continue
-                x, y = ix + dx, iy + dy
-                ok = (x >= 0) & (x < w) & (y >= 0) & (y < h)
-                self.pixels[x[ok], y[ok]] = colour[ok]
+                if dx * dx + dy * dy <= radius * radius + radius:
+                    flat[base + (dx * h + dy)] = colour
 
-    def draw_surface(self) -> None:
-        """The liquid as a smooth body: particles splatted on a coarse grid,
-        blurred, thresholded at half the bulk coverage, shaded by depth."""
+    def draw_surface(self, surface) -> None:
+        """The liquid as a smooth body: particles binned on a grid of about one
+        spacing, blurred, thresholded at a third of the bulk coverage, shaded by
+        depth below the surface, then scaled up to the window."""
+        pg = self.pygame
+        w, h = self.size
+        surface.fill(BACKGROUND)
         if self.sim.n_particles == 0:
             return
-        w, h = self.size
-        cell = max(1, int(round(0.5 * self.sim.scene.spacing * self.camera.scale)))
-        gw, gh = w // cell + 2, h // cell + 2
-        ix, iy = self.screen_points()
-        ok = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
-        grid = np.zeros((gw, gh))
-        np.add.at(grid, (ix[ok] // cell, iy[ok] // cell), 1.0)
-        grid = blur(blur(grid))  # a smooth field from the dots
-        # Normalise by the coverage deep inside the liquid (a high quantile).
-        full = np.quantile(grid[grid > 0], 0.9) if np.any(grid > 0) else 1.0
-        inside = grid > 0.35 * full
-        # Shade: darker with depth below the local surface (distance from the top edge).
-        depth = np.cumsum(inside, axis=1) * cell / max(self.camera.scale, 1e-9)
-        shade = np.clip(depth / 0.5, 0.0, 1.0)  # 0 at the surface, 1 half a metre down
-        top = np.array([120, 200, 255], float)
-        deep = np.array([15, 60, 150], float)
-        rgb = (top[None, None, :] * (1 - shade[..., None]) + deep[None, None, :] * shade[..., None])
-        edge = inside & ~np.roll(inside, 1, axis=1)  # the first cell from above: a bright rim
-        rgb[edge] = [220, 245, 255]
-        img = np.where(inside[..., None], rgb, np.array(BACKGROUND, float)).astype(np.uint8)
-        big = np.repeat(np.repeat(img, cell, axis=0), cell, axis=1)
-        self.pixels[:] = big[:w, :h]
+        px = max(1.0, self.sim.scene.spacing * self.camera.scale)  # grid cell, pixels
+        gw, gh = int(w / px) + 1, int(h / px) + 1
+        sx, sy = self.camera.to_screen(self.sim.positions)
+        gx, gy = (sx / px).astype(np.int64), (sy / px).astype(np.int64)
+        ok = (gx >= 0) & (gx < gw) & (gy >= 0) & (gy < gh)
+        grid = np.bincount(gx[ok] * gh + gy[ok], minlength=gw * gh).reshape(gw, gh)
+        grid = blur(grid.astype(np.float32))
+        inside = grid > 0.35  # in the bulk a cell holds about one particle
+        # Darker with depth below the nearest surface above: the run of liquid
+        # cells counted from the top, restarting below every gap.
+        count = np.cumsum(inside, axis=1, dtype=np.int32)
+        depth = count - np.maximum.accumulate(np.where(inside, 0, count), axis=1)
+        level = np.minimum(depth * (255.0 * px / (0.5 * self.camera.scale)), 255).astype(np.int32)
+        level[inside & ~np.roll(inside, 1, axis=1)] = 256  # a bright rim on top
+        level[~inside] = 257
+        img = SURFACE_LUT[level]
+        small = pg.surfarray.make_surface(img)
+        surface.blit(pg.transform.smoothscale(small, (int(gw * px), int(gh * px))), (0, 0))
 
     def draw_colour_bar(self, surface) -> None:
         values, lut, low, high = self.field()
@@ -191,6 +198,13 @@ class Renderer:
         unit = {"speed": "m/s", "pressure": "kPa", "density": "% rho0"}[self.mode]
         title = self.font.render(unit, True, DIM)
         surface.blit(title, (x0, y0 - 16))
+
+
+def pack(rgb) -> np.ndarray:
+    """RGB triples (..., 3) as packed 0xRRGGBB integers, the layout of pygame's
+    32-bit surfaces used here."""
+    rgb = np.asarray(rgb, np.uint32)
+    return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
 
 
 def blur(grid: np.ndarray) -> np.ndarray:
