@@ -120,6 +120,19 @@ void bind_solver(py::module_& m) {
           },
           py::arg("positions"), py::arg("velocities"), py::arg("ids") = py::none(),
           "Replace all particles (n may change); ids default to 0..n-1.")
+      .def(
+          "add_particles",
+          [](Solver& s, const InArray& x, const InArray& v) {
+            auto xs = bind::to_vec2(x, "positions");
+            auto vs = bind::to_vec2(v, "velocities");
+            py::gil_scoped_release release;
+            s.add_particles(xs, vs);
+          },
+          py::arg("positions"), py::arg("velocities"),
+          "Append particles (n, 2) with fresh ids; those outside the domain are removed.")
+      .def(
+          "set_walls", [](Solver& s, const InArray& walls) { s.set_walls(bind::to_segments(walls)); },
+          py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.")
       .def_property("threads", &Solver::threads, &Solver::set_threads,
                     "OpenMP threads used by the step")
       .def(

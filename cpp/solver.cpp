@@ -58,6 +58,12 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   threads_ = resolve_threads(P.threads);
   walls_ = WallSet(std::move(walls), P.h);
 
+  select_step();
+  set_state(std::move(positions), std::move(velocities), std::move(ids));
+}
+
+void Solver::select_step() {
+  const SimParams& P = params_;
   features_ = (P.eta > 0 ? kViscosity : 0u) | (P.sigma > 0 ? kSurfaceTension : 0u) |
               (walls_.empty() ? 0u : kWalls);
   // One instantiation of the whole step per feature set, chosen here once.
@@ -71,8 +77,30 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
       &Solver::evaluate_impl<6>, &Solver::evaluate_impl<7>};
   step_fn_ = steps[features_];
   eval_fn_ = evals[features_];
+}
 
-  set_state(std::move(positions), std::move(velocities), std::move(ids));
+void Solver::set_walls(std::vector<Segment> walls) {
+  walls_ = WallSet(std::move(walls), params_.h);
+  select_step();
+  compute_forces();
+}
+
+void Solver::add_particles(const std::vector<Vec2>& positions,
+                           const std::vector<Vec2>& velocities) {
+  check_state(positions, velocities, {});
+  const Index n = size(), k = static_cast<Index>(positions.size());
+  require(std::int64_t(n) + k < INT32_MAX, "too many particles");
+  Id next = 0;
+  for (Index i = 0; i < n; ++i) next = std::max(next, ps_.id[i] + 1);
+  ps_.resize(n + k);
+  for (Index i = 0; i < k; ++i) {
+    ps_.x[n + i] = positions[i];
+    ps_.v[n + i] = velocities[i];
+    ps_.id[n + i] = next + i;
+  }
+  remove_outside_domain();
+  compute_forces();
+  compute_energy_budget();  // pouring is an energy input: the guard's budget grows with it
 }
 
 void Solver::set_threads(int threads) {

@@ -60,6 +60,10 @@ class Solver {
   void compute_forces();
   // Replace all particles; ids empty gives 0..n-1.
   void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
+  // Append particles with fresh ids (one above the largest in use).
+  void add_particles(const std::vector<Vec2>& positions, const std::vector<Vec2>& velocities);
+  // Replace the walls; the step is re-specialised if walls appear or vanish.
+  void set_walls(std::vector<Segment> walls);
 
   const SimParams& params() const { return params_; }
   const ParticleSet& particles() const { return ps_; }
@@ -94,6 +98,7 @@ class Solver {
   void remove_outside_domain();
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
                    const std::vector<Id>& ids) const;
+  void select_step();
 
   using StepFn = void (Solver::*)(Real, Real);
   using EvalFn = void (Solver::*)();

@@ -125,3 +125,43 @@ def test_unused_terms_select_a_reduced_step(scene_dict):
     assert sphfluid.Simulation(scene_dict)._solver.features == 0
     scene_dict["fluid"]["surface_tension"] = 1.0
     assert sphfluid.Simulation(scene_dict)._solver.features == 2
+
+
+def test_walls_added_at_run_time_are_respected(scene_dict):
+    # A lid over the tank, added while running: the fluid thrown up stays below it.
+    scene_dict["fluid_regions"][0]["velocity"] = [0.0, 3.0]
+    scene_dict["fluid"].update(gas_constant=20.0, viscosity=5.0)
+    sim = sphfluid.Simulation(scene_dict)
+    assert sim._solver.features & 4
+    sim.add_wall((0.0, 0.6), (1.0, 0.6))
+    assert len(sim.walls) == 4 and sim.scene.walls[-1] == ((0.0, 0.6), (1.0, 0.6))
+    sim.run(0.3)
+    assert sim.positions[:, 1].max() < 0.6
+    sim.remove_wall(-1)
+    assert len(sim.walls) == 3
+    with pytest.raises(ValueError, match=r"walls\[3\]: wall segment has zero length"):
+        sim.add_wall((0.5, 0.5), (0.5, 0.5))
+    with pytest.raises(IndexError):
+        sim.remove_wall(7)
+
+
+def test_walls_can_appear_in_a_scene_without_any(scene_dict):
+    scene_dict["walls"] = []
+    scene_dict["fluid"].update(gas_constant=20.0, viscosity=5.0)  # a calm block
+    sim = sphfluid.Simulation(scene_dict)
+    assert sim._solver.features & 4 == 0
+    sim.add_wall((-0.1, -0.02), (1.1, -0.02))  # a floor under the falling block
+    assert sim._solver.features & 4
+    sim.run(0.4)
+    assert sim.positions[:, 1].min() > -0.02
+
+
+def test_add_particles_gives_fresh_ids(scene_dict):
+    sim = sphfluid.Simulation(scene_dict)
+    n = sim.n_particles
+    sim.add_particles([[0.7, 0.7], [0.8, 0.7], [5.0, 5.0]], [[0.0, -1.0]] * 3)
+    assert sim.n_particles == n + 2  # the one outside the domain is dropped...
+    assert sim.removed_particles == 1  # ...and counted
+    assert sorted(sim.ids)[-2:] == [n, n + 1]
+    sim.step(5)
+    assert np.all(np.isfinite(sim.positions))

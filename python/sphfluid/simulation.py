@@ -4,6 +4,7 @@ Adds no physics: every equation lives in the C++ core (``sphfluid._core``).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time as _time
@@ -157,6 +158,36 @@ class Simulation:
         """Replace all particles (N may change). ids default to 0..N-1."""
         self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float),
                                None if ids is None else np.asarray(ids, np.int64))
+
+    # -- editing (the viewer's terrain tools use these)
+    def add_particles(self, positions, velocities=None) -> None:
+        """Append particles (n, 2) with fresh ids; any outside the domain are dropped
+        (and counted as removed)."""
+        pos = np.asarray(positions, float).reshape(-1, 2)
+        vel = np.zeros_like(pos) if velocities is None else np.asarray(velocities, float)
+        self._solver.add_particles(pos, vel.reshape(-1, 2))
+
+    def set_walls(self, walls) -> None:
+        """Replace the walls: a sequence of segments ((x1, y1), (x2, y2)).
+
+        Takes effect at once; the scene (what ``reset`` and saving use) follows.
+        """
+        arr = np.asarray(walls, float).reshape(-1, 2, 2)
+        self._solver.set_walls(arr)  # validates: raises ValueError naming walls[i]
+        segs = tuple((tuple(map(float, a)), tuple(map(float, b))) for a, b in arr)
+        self.scene = dataclasses.replace(self.scene, walls=segs)
+
+    def add_wall(self, a, b) -> None:
+        """Add the wall segment a -> b (points [x, y], m)."""
+        self.set_walls([*self.scene.walls, (tuple(a), tuple(b))])
+
+    def remove_wall(self, index: int) -> None:
+        """Remove wall segment number ``index`` (as in ``walls``)."""
+        walls = list(self.scene.walls)
+        if not -len(walls) <= index < len(walls):
+            raise IndexError(f"no wall {index}: there are {len(walls)}")
+        del walls[index]
+        self.set_walls(walls)
 
     # -- state
     @property
