@@ -89,3 +89,88 @@ def test_record_refuses_an_unknown_file_type(tmp_path, capsys):
     scene.write_text(json.dumps(BASE_SCENE))
     assert main(["record", str(scene), "--out", str(tmp_path / "movie.avi")]) == 2
     assert "expected a folder for PNG frames or a .gif file" in capsys.readouterr().err
+
+
+def scripted_view(scene, events, frames, size=(500, 400)):
+    """Run the viewer headless, posting events[frame] at each frame; returns the sim."""
+    from sphfluid.viewer import view
+
+    box = {}
+
+    def script(frame, pg, sim):
+        box["sim"] = sim
+        for make in events.get(frame, []):
+            pg.event.post(make(pg))
+
+    assert view(scene, frames=frames, size=size, steps_per_frame=20, script=script) == 0
+    return box["sim"]
+
+
+def screen_of(scene, size, point):
+    from sphfluid.viewer import Camera
+
+    x, y = Camera(scene, size).to_screen(np.asarray(point, float))
+    return int(round(float(x))), int(round(float(y)))
+
+
+def falling_block(tmp_path):
+    d = copy_scene()
+    d["fluid"].update(gas_constant=20.0, viscosity=5.0)
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.3, 0.6], "max": [0.7, 0.9]}]
+    return sphfluid.load_scene(d)
+
+
+def copy_scene():
+    return json.loads(json.dumps(BASE_SCENE))
+
+
+def test_a_wall_drawn_with_the_mouse_is_respected(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    a, b = screen_of(scene, size, (0.0, 0.3)), screen_of(scene, size, (1.0, 0.3))
+    events = {1: [lambda pg: pg.event.Event(pg.MOUSEBUTTONDOWN, button=1, pos=a)],
+              2: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=b, rel=(0, 0), buttons=(1, 0, 0)),
+                  lambda pg: pg.event.Event(pg.MOUSEBUTTONUP, button=1, pos=b)]}
+    sim = scripted_view(scene, events, frames=4, size=size)
+    assert len(sim.scene.walls) == len(scene.walls) + 1
+    (x1, y1), (x2, y2) = sim.scene.walls[-1]
+    # Both ends snapped onto the box's side walls (x = 0 and x = 1 are wall lines;
+    # the nearest end points are the box corners only if within the snap radius).
+    assert y1 == pytest.approx(0.3, abs=0.02) and y2 == pytest.approx(0.3, abs=0.02)
+    sim.run(0.6)
+    assert sim.positions[:, 1].min() > min(y1, y2)  # the block landed on the new wall
+
+
+def test_deleting_the_wall_under_the_cursor(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    floor_mid = screen_of(scene, size, (0.5, 0.0))
+    events = {1: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=floor_mid, rel=(0, 0),
+                                            buttons=(0, 0, 0)),
+                  lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_x, mod=0)]}
+    sim = scripted_view(scene, events, frames=3, size=size)
+    assert len(sim.scene.walls) == len(scene.walls) - 1
+    assert ((0.0, 0.0), (1.0, 0.0)) not in sim.scene.walls
+
+
+def test_pouring_adds_particles(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    spot = screen_of(scene, size, (0.5, 0.95))
+    events = {1: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=spot, rel=(0, 0),
+                                            buttons=(0, 0, 0)),
+                  lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_e, mod=0)]}
+    n0 = sphfluid.Simulation(scene).n_particles
+    sim = scripted_view(scene, events, frames=30, size=size)
+    assert sim.n_particles > n0 + 6
+    assert np.all(np.isfinite(sim.positions))
+
+
+def test_right_drag_pushes_the_fluid(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    centre = screen_of(scene, size, (0.5, 0.75))
+    events = {1: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=centre, rel=(20, 0),
+                                            buttons=(0, 0, 1))]}
+    sim = scripted_view(scene, events, frames=2, size=size)
+    assert sim.velocities[:, 0].max() > 1.0  # dragged to the right

@@ -30,6 +30,10 @@ MODE_LABELS = {
     "surface": "liquid surface",
 }
 HELP = [
+    "left-drag  draw a wall (ends snap to wall ends)",
+    "X or Delete  delete the wall under the cursor",
+    "E  start / stop pouring fluid at the cursor",
+    "right-drag  push the fluid",
     "space  pause / run",
     "S or right arrow  one step",
     "R  reset to the scene",
@@ -200,6 +204,110 @@ class Renderer:
         surface.blit(title, (x0, y0 - 16))
 
 
+class Editor:
+    """The terrain tools, in screen coordinates: draw and delete walls, pour, push."""
+
+    SNAP_PX = 12  # end points this close to an existing one snap onto it
+    PICK_PX = 10  # a wall this close to the cursor is the one under it
+    EMIT_SPEED = 1.0  # m/s, straight down
+
+    def __init__(self, sim: Simulation, renderer: Renderer):
+        self.sim = sim
+        self.renderer = renderer
+        self.start: tuple[float, float] | None = None  # a wall being drawn (world, m)
+        self.emitter: tuple[float, float] | None = None
+        self.last_emit = -np.inf
+
+    def world(self, px: float, py: float) -> tuple[float, float]:
+        return self.renderer.camera.to_world(px, py)
+
+    def snap(self, px: float, py: float) -> tuple[float, float]:
+        """World point under the pixel, snapped to a wall end point within SNAP_PX."""
+        ends = [p for seg in self.sim.scene.walls for p in seg]
+        if ends:
+            sx, sy = self.renderer.camera.to_screen(np.asarray(ends))
+            d = np.hypot(sx - px, sy - py)
+            i = int(np.argmin(d))
+            if d[i] <= self.SNAP_PX:
+                return tuple(map(float, ends[i]))
+        return self.world(px, py)
+
+    def begin_wall(self, px: float, py: float) -> None:
+        self.start = self.snap(px, py)
+
+    def end_wall(self, px: float, py: float) -> bool:
+        """Finish the wall being drawn; True if one was added."""
+        if self.start is None:
+            return False
+        a, b = self.start, self.snap(px, py)
+        self.start = None
+        sa = np.array(self.renderer.camera.to_screen(np.asarray(a)))
+        sb = np.array(self.renderer.camera.to_screen(np.asarray(b)))
+        if np.hypot(*(sa - sb)) < 4:  # a click, not a drag
+            return False
+        self.sim.add_wall(a, b)
+        return True
+
+    def wall_at(self, px: float, py: float) -> int | None:
+        walls = self.sim.scene.walls
+        if not walls:
+            return None
+        seg = np.asarray(walls, float)
+        sx, sy = self.renderer.camera.to_screen(seg)
+        a = np.stack([sx[:, 0], sy[:, 0]], axis=1)
+        b = np.stack([sx[:, 1], sy[:, 1]], axis=1)
+        ab = b - a
+        t = np.clip(((np.array([px, py]) - a) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12),
+                    0.0, 1.0)
+        d = np.hypot(*(a + t[:, None] * ab - [px, py]).T)
+        i = int(np.argmin(d))
+        return i if d[i] <= self.PICK_PX else None
+
+    def delete_wall_at(self, px: float, py: float) -> bool:
+        i = self.wall_at(px, py)
+        if i is None:
+            return False
+        self.sim.remove_wall(i)
+        return True
+
+    def toggle_emitter(self, px: float, py: float) -> None:
+        self.emitter = None if self.emitter else self.world(px, py)
+        self.last_emit = -np.inf
+
+    def emit(self) -> int:
+        """Pour a row of three particles whenever the last row has moved one spacing."""
+        if self.emitter is None:
+            return 0
+        dx = self.sim.scene.spacing
+        if self.sim.time - self.last_emit < dx / self.EMIT_SPEED:
+            return 0
+        self.last_emit = self.sim.time
+        x0, y0 = self.emitter
+        pos = np.array([[x0 + i * dx, y0] for i in (-1, 0, 1)])
+        self.sim.add_particles(pos, np.tile([0.0, -self.EMIT_SPEED], (3, 1)))
+        return 3
+
+    def push(self, px: float, py: float, dpx: float, dpy: float) -> None:
+        """Drag fluid near the cursor along with it: a smooth weight (1 - r^2/R^2)^2
+        blends each velocity towards the cursor's, R = 5 spacings."""
+        if self.sim.n_particles == 0:
+            return
+        scale = self.renderer.camera.scale
+        centre = np.array(self.world(px, py))
+        radius = 5 * self.sim.scene.spacing
+        x, v = self.sim.positions, self.sim.velocities
+        r2 = ((x - centre) ** 2).sum(axis=1) / radius**2
+        near = r2 < 1.0
+        if not near.any():
+            return
+        # The cursor's velocity: its move this frame over one frame of real time.
+        target = np.array([dpx, -dpy]) / scale * TARGET_FPS
+        w = ((1.0 - r2[near]) ** 2)[:, None]
+        v = v.copy()
+        v[near] += w * (target - v[near])
+        self.sim.set_state(x.copy(), v, self.sim.ids.copy())
+
+
 def pack(rgb) -> np.ndarray:
     """RGB triples (..., 3) as packed 0xRRGGBB integers, the layout of pygame's
     32-bit surfaces used here."""
@@ -230,8 +338,12 @@ def save_scene(sim: Simulation, path: Path) -> Path:
 def view(scene_path: str | Path | Scene, *, frames: int | None = None,
          screenshot: str | Path | None = None, steps_per_frame: int | None = None,
          size: tuple[int, int] = (1000, 700), threads: int | None = None,
-         mode: str = "speed") -> int:
-    """Open the window and run until closed (or for ``frames`` frames). Returns 0."""
+         mode: str = "speed", script=None) -> int:
+    """Open the window and run until closed (or for ``frames`` frames). Returns 0.
+
+    script(frame, pygame, sim), if given, runs at the start of every frame (to
+    post events in tests and demos).
+    """
     import os
 
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -246,6 +358,7 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
         screen = pygame.display.set_mode(size, pygame.RESIZABLE)
         pygame.display.set_caption(f"sphfluid - {scene.name or 'scene'}")
         renderer = Renderer(sim, size, mode)
+        editor = Editor(sim, renderer)
         font = renderer.font
         realtime = max(1, round(1.0 / (TARGET_FPS * (scene.time_step or 1e-3))))
         adaptive = steps_per_frame is None
@@ -258,8 +371,11 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
         draw_ms = 0.0
         shots = 0
         running = True
+        cursor = pygame.mouse.get_pos()
         while running:
             single = False
+            if script is not None:
+                script(frame, pygame, sim)
             for event in pygame.event.get():
                 if event.type == pygame.QUIT:
                     running = False
@@ -267,6 +383,18 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                     size = (max(200, event.w), max(150, event.h))
                     screen = pygame.display.set_mode(size, pygame.RESIZABLE)
                     renderer.resize(size)
+                elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
+                    editor.begin_wall(*event.pos)
+                elif event.type == pygame.MOUSEBUTTONUP and event.button == 1:
+                    try:
+                        if editor.end_wall(*event.pos):
+                            message = f"wall added ({len(sim.scene.walls)} walls)"
+                    except ValueError as e:
+                        message = f"wall not added: {e}"
+                elif event.type == pygame.MOUSEMOTION:
+                    cursor = event.pos
+                    if event.buttons[2]:
+                        editor.push(event.pos[0], event.pos[1], *event.rel)
                 elif event.type == pygame.KEYDOWN:
                     ctrl = event.mod & pygame.KMOD_CTRL
                     if event.key in (pygame.K_ESCAPE, pygame.K_q):
@@ -289,6 +417,12 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                         renderer.mode = MODES[event.key - pygame.K_1]
                     elif event.key == pygame.K_h:
                         show_help = not show_help
+                    elif event.key in (pygame.K_x, pygame.K_DELETE):
+                        if editor.delete_wall_at(*cursor):
+                            message = f"wall deleted ({len(sim.scene.walls)} walls)"
+                    elif event.key == pygame.K_e:
+                        editor.toggle_emitter(*cursor)
+                        message = "pouring" if editor.emitter else "pouring stopped"
                     elif event.key == pygame.K_p:
                         shots += 1
                         name = f"{stem}_{shots:03d}.png"
@@ -296,6 +430,8 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                         message = f"saved {name}"
             unstable = message.startswith("unstable")
             todo = 1 if single else (0 if paused or unstable else n_steps)
+            if todo:
+                editor.emit()
             if todo:
                 t0 = time.perf_counter()
                 try:
@@ -311,6 +447,12 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
             t0 = time.perf_counter()
             renderer.draw(screen)
             draw_ms = 1000 * (time.perf_counter() - t0)
+            if editor.start is not None:  # the wall being drawn
+                a = renderer.camera.to_screen(np.asarray(editor.start))
+                pygame.draw.line(screen, (255, 210, 90), a, cursor, 2)
+            if editor.emitter is not None:
+                e = renderer.camera.to_screen(np.asarray(editor.emitter))
+                pygame.draw.circle(screen, (255, 210, 90), (int(e[0]), int(e[1])), 6, 2)
             st = sim.stats()
             status = (f"t = {sim.time:7.3f} s  {clock.get_fps():5.1f} fps  {step_rate:7,.0f} "
                       f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
@@ -318,8 +460,7 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                       f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}  {n_steps} steps/frame"
                       + ("  PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
-            mx, my = pygame.mouse.get_pos()
-            wx, wy = renderer.camera.to_world(mx, my)
+            wx, wy = renderer.camera.to_world(*cursor)
             footer = (f"{MODE_LABELS[renderer.mode]}   draw {draw_ms:.1f} ms   cursor "
                       f"({wx:.3f}, {wy:.3f}) m   H: help")
             screen.blit(font.render(footer, True, DIM), (8, size[1] - 18))
