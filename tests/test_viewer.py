@@ -174,3 +174,15 @@ def test_right_drag_pushes_the_fluid(tmp_path):
                                             buttons=(0, 0, 1))]}
     sim = scripted_view(scene, events, frames=2, size=size)
     assert sim.velocities[:, 0].max() > 1.0  # dragged to the right
+
+
+def test_zoom_keeps_the_point_under_the_cursor():
+    from sphfluid.viewer import Camera
+
+    scene = sphfluid.load_scene(BASE_SCENE)
+    cam = Camera(scene, (500, 400))
+    before = cam.to_world(123, 77)
+    cam.zoom(1.25**3, 123, 77)
+    assert cam.to_world(123, 77) == pytest.approx(before)
+    cam.pan(10, -5)
+    assert cam.to_world(133, 72) == pytest.approx(before)

@@ -34,6 +34,7 @@ HELP = [
     "X or Delete  delete the wall under the cursor",
     "E  start / stop pouring fluid at the cursor",
     "right-drag  push the fluid",
+    "wheel  zoom at the cursor   middle-drag  pan   0  fit the domain",
     "space  pause / run",
     "S or right arrow  one step",
     "R  reset to the scene",
@@ -85,6 +86,16 @@ class Camera:
     def to_screen(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return (self.ox + self.scale * xy[..., 0], self.oy - self.scale * xy[..., 1])
 
+    def zoom(self, factor: float, px: float, py: float) -> None:
+        """Zoom by factor, keeping the world point under pixel (px, py) in place."""
+        wx, wy = self.to_world(px, py)
+        self.scale *= factor
+        self.ox, self.oy = px - self.scale * wx, py + self.scale * wy
+
+    def pan(self, dpx: float, dpy: float) -> None:
+        self.ox += dpx
+        self.oy += dpy
+
     def to_world(self, px: float, py: float) -> tuple[float, float]:
         return ((px - self.ox) / self.scale, (self.oy - py) / self.scale)
 
@@ -107,6 +118,7 @@ class Renderer:
         self.pmax = max(1.0, scene.rest_density * g * height)  # Pa
 
     def resize(self, size: tuple[int, int]) -> None:
+        """Fit the domain into a window of this size (also resets zoom and pan)."""
         self.size = size
         self.camera = Camera(self.sim.scene, size)
         self.pixels = np.empty((size[0], size[1]), np.uint32)  # packed 0xRRGGBB
@@ -391,10 +403,14 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                             message = f"wall added ({len(sim.scene.walls)} walls)"
                     except ValueError as e:
                         message = f"wall not added: {e}"
+                elif event.type == pygame.MOUSEWHEEL:
+                    renderer.camera.zoom(1.25 ** event.y, *cursor)
                 elif event.type == pygame.MOUSEMOTION:
                     cursor = event.pos
                     if event.buttons[2]:
                         editor.push(event.pos[0], event.pos[1], *event.rel)
+                    elif event.buttons[1]:
+                        renderer.camera.pan(*event.rel)
                 elif event.type == pygame.KEYDOWN:
                     ctrl = event.mod & pygame.KMOD_CTRL
                     if event.key in (pygame.K_ESCAPE, pygame.K_q):
@@ -417,6 +433,8 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
                         renderer.mode = MODES[event.key - pygame.K_1]
                     elif event.key == pygame.K_h:
                         show_help = not show_help
+                    elif event.key == pygame.K_0:
+                        renderer.resize(size)  # fit the domain again
                     elif event.key in (pygame.K_x, pygame.K_DELETE):
                         if editor.delete_wall_at(*cursor):
                             message = f"wall deleted ({len(sim.scene.walls)} walls)"
