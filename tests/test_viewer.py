@@ -186,3 +186,14 @@ def test_zoom_keeps_the_point_under_the_cursor():
     assert cam.to_world(123, 77) == pytest.approx(before)
     cam.pan(10, -5)
     assert cam.to_world(133, 72) == pytest.approx(before)
+
+
+def test_record_writes_a_gif(tmp_path, capsys):
+    image = pytest.importorskip("PIL.Image")
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    out = tmp_path / "movie.gif"
+    assert main(["record", str(scene), "--out", str(out), "--duration", "0.1", "--fps", "20",
+                 "--size", "200x150", "--mode", "surface"]) == 0
+    with image.open(out) as gif:
+        assert gif.size == (200, 150) and gif.n_frames == 3

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import datetime
+import os
 import re
 import sys
 import time
@@ -281,8 +282,9 @@ def main(args) -> int:
                              f"**SILENT** ({o.detail})")
             rows.append(f"| {'auto' if dt is None else f'{dt:.0e}'} | " + " | ".join(cells)
                         + " |")
+        link = os.path.relpath(png, args.write.parent if args.write else Path("."))
         sections.append(f"### {kind.replace('_', ' ').capitalize()}\n\n" + "\n".join(rows)
-                        + (f"\n\n![{kind}]({png.name})" if drew else "") + "\n")
+                        + (f"\n\n![{kind}]({link})" if drew else "") + "\n")
 
     violent = {}
     for name, d in violent_scenes(tank_steps).items():
