@@ -122,6 +122,7 @@ class Renderer:
         self.size = size
         self.camera = Camera(self.sim.scene, size)
         self.pixels = np.empty((size[0], size[1]), np.uint32)  # packed 0xRRGGBB
+        self._surface_cache = None
 
     # -- scalar fields and their colour scales
     def field(self) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -176,16 +177,17 @@ class Renderer:
     def draw_surface(self, surface) -> None:
         """The liquid as a smooth body: particles binned on a grid of about one
         spacing, blurred, thresholded at a third of the bulk coverage, shaded by
-        depth below the surface, then scaled up to the window."""
+        depth below the surface, then scaled up onto the whole window."""
         pg = self.pygame
         w, h = self.size
-        surface.fill(BACKGROUND)
         if self.sim.n_particles == 0:
+            surface.fill(BACKGROUND)
             return
-        px = max(1.0, self.sim.scene.spacing * self.camera.scale)  # grid cell, pixels
-        gw, gh = int(w / px) + 1, int(h / px) + 1
+        cell = max(1.0, self.sim.scene.spacing * self.camera.scale)  # pixels
+        gw, gh = max(1, round(w / cell)), max(1, round(h / cell))
+        cx, cy = w / gw, h / gh  # exact cell size, so the scaled image lines up
         sx, sy = self.camera.to_screen(self.sim.positions)
-        gx, gy = (sx / px).astype(np.int64), (sy / px).astype(np.int64)
+        gx, gy = (sx / cx).astype(np.int64), (sy / cy).astype(np.int64)
         ok = (gx >= 0) & (gx < gw) & (gy >= 0) & (gy < gh)
         grid = np.bincount(gx[ok] * gh + gy[ok], minlength=gw * gh).reshape(gw, gh)
         grid = blur(grid.astype(np.float32))
@@ -194,12 +196,19 @@ class Renderer:
         # cells counted from the top, restarting below every gap.
         count = np.cumsum(inside, axis=1, dtype=np.int32)
         depth = count - np.maximum.accumulate(np.where(inside, 0, count), axis=1)
-        level = np.minimum(depth * (255.0 * px / (0.5 * self.camera.scale)), 255).astype(np.int32)
-        level[inside & ~np.roll(inside, 1, axis=1)] = 256  # a bright rim on top
-        level[~inside] = 257
-        img = SURFACE_LUT[level]
-        small = pg.surfarray.make_surface(img)
-        surface.blit(pg.transform.smoothscale(small, (int(gw * px), int(gh * px))), (0, 0))
+        # Shade index: 0 at the surface, the last shade half a metre down.
+        cap = max(1, int(np.ceil(0.5 * self.camera.scale / cy)))
+        level = np.minimum(depth, cap)
+        level[inside & ~np.roll(inside, 1, axis=1)] = cap + 1  # a bright rim on top
+        level[~inside] = cap + 2
+        if self._surface_cache is None or self._surface_cache[0] != (gw, gh, cap):
+            packed = pack(SURFACE_LUT)
+            lut = np.concatenate([packed[np.linspace(0, 255, cap + 1).astype(int)],
+                                  packed[256:]])
+            self._surface_cache = ((gw, gh, cap), pg.Surface((gw, gh), depth=32), lut)
+        _, small, lut = self._surface_cache
+        pg.surfarray.blit_array(small, np.take(lut, level))
+        pg.transform.scale(small, (w, h), surface)  # nearest: cells are a few pixels
 
     def draw_colour_bar(self, surface) -> None:
         values, lut, low, high = self.field()
@@ -328,15 +337,13 @@ def pack(rgb) -> np.ndarray:
 
 
 def blur(grid: np.ndarray) -> np.ndarray:
-    """A separable binomial [1 4 6 4 1]/16 blur along both axes, by shifted sums."""
-    k = (1.0, 4.0, 6.0, 4.0, 1.0)
-    for axis in (0, 1):
-        pad = [(0, 0), (0, 0)]
-        pad[axis] = (2, 2)
-        g = np.pad(grid, pad)
-        n = grid.shape[axis]
-        grid = sum(w * np.take(g, np.arange(i, i + n), axis=axis) for i, w in enumerate(k)) / 16
-    return grid
+    """A separable binomial [1 4 6 4 1]/16 blur along both axes, by shifted slices."""
+    n, m = grid.shape
+    g = np.pad(grid, ((2, 2), (0, 0)))
+    grid = (g[0:n] + g[4:n + 4] + 4 * (g[1:n + 1] + g[3:n + 3]) + 6 * g[2:n + 2]) / 16
+    g = np.pad(grid, ((0, 0), (2, 2)))
+    return (g[:, 0:m] + g[:, 4:m + 4] + 4 * (g[:, 1:m + 1] + g[:, 3:m + 3])
+            + 6 * g[:, 2:m + 2]) / 16
 
 
 def save_scene(sim: Simulation, path: Path) -> Path:
