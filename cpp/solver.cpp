@@ -343,7 +343,7 @@ void Solver::compute_density() {
 // Pressure (seed eq. 14), viscosity (17) and colour-field surface tension
 // (18-20) as force densities; a = f / rho + g. Wall ghosts add pressure and
 // viscosity only. A ghost has the density rho0 * ghost_density_ratio and mirrors
-// the particle's pressure, clipped at zero so that walls push but never pull.
+// the particle's pressure; only its positive part acts, so walls push, never pull.
 template <unsigned F>
 void Solver::compute_accelerations() {
   const Index n = size();
@@ -387,11 +387,13 @@ void Solver::compute_accelerations() {
       }
     }
     if constexpr ((F & kWalls) != 0) {
-      const Real p_ghost = std::max(pi, Real(0));
+      // The pair (p_i + p_ghost) / 2 with both at the positive part of p_i:
+      // the wall pushes back as hard as the fluid presses, and never pulls.
+      const Real p_wall = std::max(pi, Real(0));
       for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q) {
         const Vec2& r = ghosts_.items[q];
         const Real rl = r.norm();
-        f -= (m_ghost * (pi + p_ghost) * Real(0.5) / rho_ghost) * kern_.grad_spiky(r, rl);
+        f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
         if constexpr ((F & kViscosity) != 0)
           f -= (eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
       }

@@ -51,10 +51,10 @@ def seed_forces(x, v, *, h, m, rho0, k, eta=0.0, sigma=0.0, threshold=None,
                 d = np.sqrt((rg**2).sum())
                 if d >= h:
                     continue
-                pg = max(p[i], 0.0)
+                pw = max(p[i], 0.0)  # walls push, never pull
                 if d > 0:
                     gs = -30.0 / (np.pi * h**5) * (h - d) ** 2 * rg / d
-                    f[i] -= gm * (p[i] + pg) / (2.0 * gd) * gs
+                    f[i] -= gm * (pw + pw) / (2.0 * gd) * gs
                 if eta > 0:
                     f[i] -= eta * gm / gd * 40.0 / (np.pi * h**5) * (h - d) * v[i]
     if sigma > 0:
