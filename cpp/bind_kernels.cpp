@@ -4,9 +4,11 @@
 #include <pybind11/pybind11.h>
 
 #include <cmath>
+#include <string>
 
 #include "bind_arrays.hpp"
 #include "kernels.hpp"
+#include "wendland.hpp"
 #include "walls.hpp"
 
 namespace py = pybind11;
@@ -74,19 +76,43 @@ void bind_kernels(py::module_& m) {
       return k.grad_spiky(x, x.norm());
     });
   }, py::arg("r_ij"), py::arg("h"), "spiky gradient for offsets r_ij of shape (n, 2)");
-  m.def("lattice_mass", [](double rho0, double dx, double h) {
+  m.def("wendland_w", [](const InArray& r, double h) {
+    check_h(h);
+    const Wendland w(h);
+    return radial(r, h, [&](const Kernels&, double x) { return w.value(x); });
+  }, py::arg("r"), py::arg("h"), "Wendland C2 W(r) = 7/(pi h^2) (1 - q)^4 (1 + 4q), support h");
+  m.def("wendland_lap", [](const InArray& r, double h) {
+    check_h(h);
+    const Wendland w(h);
+    return radial(r, h, [&](const Kernels&, double x) { return w.laplacian(x); });
+  }, py::arg("r"), py::arg("h"), "Wendland C2 Laplacian -140/(pi h^4) (1 - q)^2 (2 - 5q)");
+  m.def("wendland_grad", [](const InArray& r, double h) {
+    check_h(h);
+    const Wendland w(h);
+    return vector_valued(r, h, [&](const Kernels&, const Vec2& x) {
+      return w.gradient(x, x.norm());
+    });
+  }, py::arg("r_ij"), py::arg("h"), "Wendland C2 gradient for offsets r_ij of shape (n, 2)");
+  m.def("lattice_mass", [](double rho0, double dx, double h, const std::string& kernel) {
     check_h(h);
     if (!(dx > 0 && rho0 > 0)) throw std::invalid_argument("rho0 and dx must be > 0");
+    if (kernel != "poly6" && kernel != "wendland")
+      throw std::invalid_argument("kernel: expected poly6 or wendland, got " + kernel);
     // Mass that gives density rho0 at a particle inside an infinite square
-    // lattice of spacing dx: rho0 / sum_j W_poly6(|r_ij|), self included.
+    // lattice of spacing dx: rho0 / sum_j W(|r_ij|), self included.
     const Kernels k(h);
+    const Wendland w(h);
     const int reach = static_cast<int>(std::ceil(h / dx));
     double sum = 0;
     for (int i = -reach; i <= reach; ++i)
-      for (int j = -reach; j <= reach; ++j) sum += k.w_poly6((i * i + j * j) * dx * dx);
+      for (int j = -reach; j <= reach; ++j) {
+        const double r2 = (i * i + j * j) * dx * dx;
+        sum += kernel == "poly6" ? k.w_poly6(r2) : w.value(std::sqrt(r2));
+      }
     return rho0 / sum;
-  }, py::arg("rho0"), py::arg("dx"), py::arg("h"),
-     "Particle mass giving density rho0 inside a filled square lattice of spacing dx");
+  }, py::arg("rho0"), py::arg("dx"), py::arg("h"), py::arg("kernel") = "poly6",
+     "Particle mass giving density rho0 inside a filled square lattice of spacing dx "
+     "for the seed's poly6 or wcsph's Wendland kernel");
 }
 
 void bind_walls(py::module_& m) {
@@ -96,7 +122,7 @@ void bind_walls(py::module_& m) {
     const Vec2 p(point.data()[0], point.data()[1]);
     const WallSet set(bind::to_segments(walls), h);
     std::vector<Vec2> ghosts;
-    set.for_each_ghost(p, [&](const Vec2& r) { ghosts.push_back(p - r); });
+    set.for_each_ghost(p, [&](const Vec2& r, bool) { ghosts.push_back(p - r); });
     py::array_t<double> out({py::ssize_t(ghosts.size()), py::ssize_t(2)});
     auto o = out.mutable_unchecked<2>();
     for (std::size_t i = 0; i < ghosts.size(); ++i) {

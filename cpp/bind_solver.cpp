@@ -28,8 +28,15 @@ std::vector<Id> to_ids(const py::object& ids) {
 void bind_solver(py::module_& m) {
   py::register_exception<InstabilityError>(m, "InstabilityError", PyExc_RuntimeError);
 
+  py::enum_<Method>(m, "Method", "The SPH method of a run")
+      .value("seed", Method::kSeed)
+      .value("wcsph", Method::kWcsph);
+
   py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
       .def(py::init<>())
+      .def_readwrite("method", &SimParams::method, "seed (SPEC.md) or wcsph")
+      .def_readwrite("c0", &SimParams::c0, "wcsph: speed of sound, m/s")
+      .def_readwrite("alpha", &SimParams::alpha, "wcsph: artificial viscosity coefficient")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
       .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
       .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")

@@ -16,6 +16,8 @@ enum Feature : unsigned {
   kWalls = 1u << 2,           // at least one wall segment: seed section 4
 };
 
+enum class Method : int { kSeed = 0, kWcsph = 1 };
+
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 
 inline const char* limit_name(TimeStepLimit l) {
@@ -30,6 +32,7 @@ inline const char* limit_name(TimeStepLimit l) {
 }
 
 struct SimParams {
+  Method method = Method::kSeed;
   Real h = 0.04;         // smoothing length (kernel support), m
   Real mass = 0.4;       // particle mass, kg per metre of depth
   Real rho0 = 1000.0;    // rest density, kg/m^3
@@ -55,9 +58,10 @@ struct SimParams {
   int threads = 0;  // OpenMP threads; 0 = the OpenMP default
 
   // Adaptive time step: each step takes the largest dt that satisfies
-  //   dt <= cfl h / (c + |v|max)            (sound speed and flow speed)
-  //   dt <= kForceFactor sqrt(h / |a|max)   (force)
-  //   dt <= kViscousFactor h^2 rho0 / eta   (viscous diffusion)
+  //   dt <= cfl l / (c + |v|max)            (sound speed and flow speed)
+  //   dt <= kForceFactor sqrt(l / |a|max)   (force)
+  //   dt <= kViscousFactor l^2 rho0 / eta   (viscous diffusion)
+  // with l = step_length().
   // (Monaghan 1992; Morris, Fox & Zhu 1997), capped by dt_max when > 0.
   Real cfl = 0.4;
   Real dt_max = 0;  // s; 0 = no cap
@@ -72,8 +76,19 @@ struct SimParams {
   Real guard_energy_factor = 2.0;  // kinetic energy > factor * what the scene can supply
   int max_retries = 0;  // on a trip: retry with dt / 2, dt / 4, ... this many times
 
-  // Speed of sound of the seed's EOS p = k (rho - rho0): c^2 = dp/drho = k.
-  Real sound_speed() const { return std::sqrt(k); }
+  // wcsph: Tait EOS p = B ((rho/rho0)^7 - 1), B = rho0 c0^2 / 7, and Monaghan's
+  // artificial viscosity with coefficient alpha.
+  Real c0 = 0;       // speed of sound, m/s (> 0 for wcsph)
+  Real alpha = 0.1;  // artificial viscosity
+  static constexpr Real kTaitGamma = 7;
+
+  // Speed of sound of the method's EOS: sqrt(k) for the seed's p = k (rho - rho0)
+  // (c^2 = dp/drho), c0 for wcsph.
+  Real sound_speed() const { return method == Method::kWcsph ? c0 : std::sqrt(k); }
+
+  // The length in the time-step conditions: the kernel support h for the seed's
+  // kernels, the smoothing length h/2 for wcsph's Wendland kernel (support 2 x h/2).
+  Real step_length() const { return method == Method::kWcsph ? h / 2 : h; }
 
   // Mueller et al. (2003) use l = 7.065 /m with h = 0.0457 m, i.e. l h = 0.323.
   static constexpr Real kSurfaceThresholdTimesH = 0.323;

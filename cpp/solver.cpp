@@ -30,7 +30,7 @@ std::string fmt(const Vec2& u) { return "(" + fmt(u.x()) + ", " + fmt(u.y()) + "
 
 Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector<Vec2> velocities,
                std::vector<Id> ids, std::vector<Segment> walls)
-    : params_(params), kern_(params.h > 0 ? params.h : 1) {
+    : params_(params), kern_(params.h > 0 ? params.h : 1), wendland_(kern_.h) {
   const SimParams& P = params_;
   require(std::isfinite(P.h) && P.h > 0, "smoothing length h must be > 0");
   require(std::isfinite(P.mass) && P.mass > 0, "particle mass must be > 0");
@@ -55,8 +55,12 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   require(P.guard_density_ratio > 1 && P.guard_speed_factor > 0 && P.guard_energy_factor > 0,
           "guard limits must be positive (density ratio > 1)");
   require(P.max_retries >= 0 && P.max_retries <= 20, "max_retries must be in [0, 20]");
+  require(P.method == Method::kSeed || (std::isfinite(P.c0) && P.c0 > 0),
+          "wcsph needs a speed of sound c0 > 0");
+  require(std::isfinite(P.alpha) && P.alpha >= 0, "artificial viscosity alpha must be >= 0");
   threads_ = resolve_threads(P.threads);
   walls_ = WallSet(std::move(walls), P.h);
+  if (P.method == Method::kWcsph) wendland_.build_wall_tables();
 
   select_step();
   set_state(std::move(positions), std::move(velocities), std::move(ids));
@@ -77,6 +81,7 @@ void Solver::select_step() {
       &Solver::evaluate_impl<6>, &Solver::evaluate_impl<7>};
   step_fn_ = steps[features_];
   eval_fn_ = evals[features_];
+  if (P.method == Method::kWcsph) select_wcsph_step();
 }
 
 void Solver::set_walls(std::vector<Segment> walls) {
@@ -143,9 +148,17 @@ void Solver::compute_energy_budget() {
   for (Index i = 0; i < n; ++i) {
     kinetic += 0.5 * m * ps_.v[i].squaredNorm();
     centre += ps_.x[i];
-    // Elastic energy of p = k (rho - rho0): k (ln(rho/rho0) + rho0/rho - 1) per kg.
     const Real r = ps_.rho[i] / P.rho0;
-    elastic += m * P.k * (std::log(r) + 1 / r - 1);
+    if (P.method == Method::kWcsph) {
+      // Tait (clamped at rho0): B/((g-1) rho0) (r^(g-1) - 1) + B (1/rho - 1/rho0) per kg
+      const Real g = SimParams::kTaitGamma, B = P.rho0 * P.c0 * P.c0 / g;
+      const Real rc = std::max(r, Real(1));
+      elastic += m * (B / ((g - 1) * P.rho0) * (std::pow(rc, g - 1) - 1) +
+                      B * (1 / (rc * P.rho0) - 1 / P.rho0));
+    } else {
+      // p = k (rho - rho0): k (ln(rho/rho0) + rho0/rho - 1) per kg
+      elastic += m * P.k * (std::log(r) + 1 / r - 1);
+    }
   }
   Real release = 0;  // the most gravity can give: the centre of mass at the domain's far corner
   if (n > 0) {
@@ -228,7 +241,8 @@ Real Solver::choose_dt(Real dt_cap) {
   }
   const SimParams& P = params_;
   const Real inf = std::numeric_limits<Real>::infinity();
-  Real dt = P.cfl * P.h / (P.sound_speed() + std::sqrt(v2));
+  const Real l = P.step_length();
+  Real dt = P.cfl * l / (P.sound_speed() + std::sqrt(v2));
   TimeStepLimit limit = TimeStepLimit::kCfl;
   auto consider = [&](Real candidate, TimeStepLimit why) {
     if (candidate < dt) {
@@ -236,9 +250,9 @@ Real Solver::choose_dt(Real dt_cap) {
       limit = why;
     }
   };
-  consider(a2 > 0 ? SimParams::kForceFactor * std::sqrt(P.h / std::sqrt(a2)) : inf,
+  consider(a2 > 0 ? SimParams::kForceFactor * std::sqrt(l / std::sqrt(a2)) : inf,
            TimeStepLimit::kForce);
-  consider(P.eta > 0 ? SimParams::kViscousFactor * P.h * P.h * P.rho0 / P.eta : inf,
+  consider(P.eta > 0 ? SimParams::kViscousFactor * l * l * P.rho0 / P.eta : inf,
            TimeStepLimit::kViscous);
   consider(P.dt_max > 0 ? P.dt_max : inf, TimeStepLimit::kMax);
   if (!(dt > 0) || !std::isfinite(dt))
@@ -265,7 +279,7 @@ void Solver::step_impl(Real dt, Real dt_cap) {
     dt = choose_dt(dt_cap);
   }
   last_dt_ = dt;
-  integrate<F>(dt);
+  integrate<F>(dt, dt);
   mark(kIntegrate);
   remove_outside_domain();
   mark(kDomain);
@@ -281,7 +295,7 @@ void Solver::evaluate_impl() {
     // Wall ghosts of every particle, found once and reused by both passes.
     const Vec2* x = ps_.x.data();
     build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
-      walls_.for_each_ghost(x[i], [&](const Vec2& r) { out.push_back(r); });
+      walls_.for_each_ghost(x[i], [&](const Vec2& r, bool) { out.push_back(r); });
     });
     mark(kGhosts);
   }
@@ -406,11 +420,12 @@ void Solver::compute_accelerations() {
   }
 }
 
-// Semi-implicit Euler, then the wall collision of the same particle (4.2),
-// written into fresh buffers; the guard then checks the new state (non-finite
+// v += kick a; x += dt v (semi-implicit Euler for the seed, kick = dt; the
+// first half of kick-drift-kick for wcsph, kick = dt/2), then the wall collision
+// of the same particle (4.2), written into fresh buffers; the guard then checks the new state (non-finite
 // values, density, speed, kinetic energy) and only a good one replaces the old.
 template <unsigned F>
-void Solver::integrate(Real dt) {
+void Solver::integrate(Real dt, Real kick) {
   const Index n = size();
   const Vec2* x = ps_.x.data();
   const Vec2* v = ps_.v.data();
@@ -430,7 +445,7 @@ void Solver::integrate(Real dt) {
     reduction(+ : v2_sum)
   for (Index i = 0; i < n; ++i) {
     const Vec2 x_old = x[i];
-    Vec2 vi = v[i] + dt * a[i];
+    Vec2 vi = v[i] + kick * a[i];
     Vec2 xi = x_old + dt * vi;
     if constexpr ((F & kWalls) != 0)
       if (xi.allFinite() && vi.allFinite()) walls_.collide(x_old, xi, vi, e);
@@ -443,13 +458,14 @@ void Solver::integrate(Real dt) {
   }
   const Real kinetic = 0.5 * params_.mass * v2_sum;
   if (bad || (guard && !(kinetic <= params_.guard_energy_factor * energy_budget_)))
-    trip(dt, x_new, v_new, kinetic);
+    trip(dt, x_new, v_new, rho, kinetic);
   ps_.x.commit_write();
   ps_.v.commit_write();
 }
 
 // Names the step, the time, the first particle that failed and the check.
-void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, Real kinetic) const {
+void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho_new,
+                  Real kinetic) const {
   const Index n = size();
   const Real rho0 = params_.rho0, c = params_.sound_speed();
   const std::string where = "step " + std::to_string(step_count_ + 1) + " (t = " +
@@ -463,9 +479,9 @@ void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, Real kinetic) c
     if (!(x_new[i].allFinite() && v_new[i].allFinite()))
       throw InstabilityError(who + " got a non-finite velocity or position [check: finite]" +
                              numbers);
-    if (!params_.guard) continue;
-    if (!(ps_.rho[i] <= params_.guard_density_ratio * rho0))
-      throw InstabilityError(who + ": density " + fmt(ps_.rho[i]) + " kg/m^3 is over " +
+    if (!params_.guard && rho_new[i] > 0) continue;
+    if (!(rho_new[i] <= params_.guard_density_ratio * rho0 && rho_new[i] > 0))
+      throw InstabilityError(who + ": density " + fmt(rho_new[i]) + " kg/m^3 is over " +
                              fmt(params_.guard_density_ratio) + " rho0 [check: density]" +
                              numbers);
     const Real speed = v_new[i].norm();

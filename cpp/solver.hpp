@@ -15,6 +15,7 @@
 #include "params.hpp"
 #include "particles.hpp"
 #include "walls.hpp"
+#include "wendland.hpp"
 
 namespace sphfluid {
 
@@ -89,11 +90,17 @@ class Solver {
   // One step (fixed dt > 0, or adaptive), retried with halved dt on a trip.
   void guarded_step(Real dt, Real dt_cap);
   void compute_energy_budget();
-  [[noreturn]] void trip(Real dt, const Vec2* x_new, const Vec2* v_new, Real kinetic) const;
+  [[noreturn]] void trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho_new,
+                         Real kinetic) const;
+  // The wcsph method (solver_wcsph.cpp): kick-drift-kick, summation density
+  // with the Wendland C2 kernel, Tait EOS, artificial and Morris viscosity.
+  void select_wcsph_step();
+  template <unsigned F> void wcsph_step_impl(Real dt, Real dt_cap);
+  template <unsigned F> void wcsph_evaluate_impl();
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
-  template <unsigned F> void integrate(Real dt);
+  template <unsigned F> void integrate(Real dt, Real kick);
   void sort_and_find_neighbours();
   void remove_outside_domain();
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
@@ -105,6 +112,7 @@ class Solver {
 
   SimParams params_;
   Kernels kern_;
+  Wendland wendland_;  // wcsph's kernel, with its wall tables
   WallSet walls_;
   unsigned features_ = 0;
   StepFn step_fn_ = nullptr;
@@ -117,6 +125,7 @@ class Solver {
   Csr<Index> nbrs_;
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
+  std::vector<Real> p_over_rho2_; // wcsph: p / rho^2
   std::vector<Real> p_over_rho_;  // p / rho, likewise: saves divisions per pair
   std::vector<char> keep_;    // scratch for domain removal
   std::vector<char> bad_;     // per thread: a non-finite value was produced

@@ -39,8 +39,9 @@ class WallSet {
   bool empty() const { return segments_.empty(); }
   const std::vector<Segment>& segments() const { return segments_; }
 
-  // Calls f(r_ig) for every ghost of a fluid particle at p, where r_ig = p - ghost
-  // and |r_ig| < h. A ghost sits at the foot of the perpendicular on each segment
+  // Calls f(r_ig, interior) for every ghost of a fluid particle at p, where
+  // r_ig = p - ghost, |r_ig| < h, and interior is false for a ghost clamped to an
+  // end point of its segment. A ghost sits at the foot of the perpendicular on each segment
   // within h (seed 4.1). Where segments share an end point the particle gets one
   // ghost there, not one per segment, so polylines have no doubled joints.
   template <class F>
@@ -56,7 +57,7 @@ class WallSet {
       if (r.squaredNorm() >= h2_) continue;
       if (t <= 0 && !owns_end_point(si, s.shared_a, p)) continue;
       if (t >= 1 && !owns_end_point(si, s.shared_b, p)) continue;
-      f(r);
+      f(r, t > 0 && t < 1);
     }
   }
 

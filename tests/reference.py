@@ -70,3 +70,40 @@ def seed_forces(x, v, *, h, m, rho0, k, eta=0.0, sigma=0.0, threshold=None,
         f[on] -= sigma * (lap[on] / size[on])[:, None] * nrm[on]            # eq. 20
     a = f / rho[:, None] + np.asarray(gravity)
     return rho, p, a
+
+
+def wendland_grad(r, h):
+    """grad W of the Wendland C2 kernel with support h, for offsets r (..., 2)."""
+    rl = np.sqrt((r**2).sum(-1))
+    q = np.clip(1.0 - rl / h, 0.0, None)
+    return (-140.0 / (np.pi * h**4) * q**3)[..., None] * r
+
+
+def wendland(r, h):
+    q = np.clip(1.0 - r / h, 0.0, None)
+    return 7.0 / (np.pi * h**2) * q**4 * (1.0 + 4.0 * (r / h)) * (r < h)
+
+
+def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81)):
+    """Density, pressure and acceleration under the wcsph method with no walls:
+    summation density (Wendland C2, support h), Tait EOS clamped at rho0,
+    symmetric pressure gradient, Monaghan's artificial viscosity and Morris'
+    viscosity (README, "The wcsph method")."""
+    r = x[:, None, :] - x[None, :, :]
+    r2 = (r**2).sum(-1)
+    rho = (m * wendland(np.sqrt(r2), h)).sum(1)
+    B = rho0 * c0**2 / 7.0
+    p = B * ((np.maximum(rho, rho0) / rho0) ** 7 - 1.0)
+    gw = wendland_grad(r, h)
+    vij = v[:, None, :] - v[None, :, :]
+    hs, eps2 = 0.5 * h, 0.01 * (0.5 * h) ** 2
+    vr = (vij * r).sum(-1)
+    rho_bar = 0.5 * (rho[:, None] + rho[None, :])
+    pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
+    coef = p[:, None] / rho[:, None] ** 2 + p[None, :] / rho[None, :] ** 2 + pi_ij
+    a = -(m * coef[..., None] * gw).sum(1)
+    if eta > 0:
+        rg = (r * gw).sum(-1)
+        visc = (m * 2 * eta / (rho[:, None] * rho[None, :]) * rg / (r2 + eps2))[..., None] * vij
+        a += visc.sum(1)
+    return rho, p, a + np.asarray(gravity)

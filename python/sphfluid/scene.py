@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 FORMAT = "sphfluid-scene/1"
-METHODS = ("seed",)
+METHODS = ("seed", "wcsph")
 
 # Defaults, in one place (units in the comments).
 DEFAULT_GRAVITY = (0.0, -9.81)  # m/s^2
@@ -28,6 +28,7 @@ DEFAULT_SURFACE_TENSION = 0.0  # N (2D)
 DEFAULT_SMOOTHING_FACTOR = 2.0  # h = factor * spacing
 DEFAULT_RESTITUTION = 1.0  # mirror reflection, as the seed paper describes
 DEFAULT_CFL = 0.4  # CFL factor of the adaptive time step
+DEFAULT_ARTIFICIAL_VISCOSITY = 0.1  # wcsph: Monaghan's alpha
 # Mueller et al. (2003): threshold l = 7.065 /m at h = 0.0457 m, so l h = 0.323.
 DEFAULT_SURFACE_THRESHOLD_TIMES_H = 0.323
 
@@ -39,7 +40,8 @@ MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "fluid_regions",
              "walls", "solver", "duration")
 _DOMAIN_KEYS = ("min", "max")
-_FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension")
+_FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
+               "speed_of_sound", "artificial_viscosity")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
 _SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitution",
                 "surface_threshold")
@@ -112,7 +114,7 @@ class Scene:
     domain_min: Point
     domain_max: Point
     rest_density: float  # rho0, kg/m^3
-    gas_constant: float  # k, m^2/s^2
+    gas_constant: float | None  # k, m^2/s^2 (seed)
     spacing: float  # lattice spacing dx, m
     smoothing_length: float  # kernel support h, m
     time_step: float | None  # dt, s; None: adaptive ("auto")
@@ -128,6 +130,8 @@ class Scene:
     wall_restitution: float = DEFAULT_RESTITUTION
     surface_threshold: float | None = None  # 1/m; None: 0.323 / h
     cfl: float = DEFAULT_CFL  # CFL factor of the adaptive step
+    speed_of_sound: float | None = None  # wcsph c0, m/s; None: 10 x the expected top speed
+    artificial_viscosity: float = DEFAULT_ARTIFICIAL_VISCOSITY  # wcsph alpha
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     source: str | None = field(default=None, compare=False)
 
@@ -162,8 +166,8 @@ class Scene:
             "name": self.name,
             "gravity": list(self.gravity),
             "domain": {"min": list(self.domain_min), "max": list(self.domain_max)},
-            "fluid": {"rest_density": self.rest_density, "gas_constant": self.gas_constant,
-                      "viscosity": self.viscosity, "surface_tension": self.surface_tension},
+            "fluid": {"rest_density": self.rest_density, "viscosity": self.viscosity,
+                      "surface_tension": self.surface_tension},
             "resolution": {"spacing": self.spacing, "smoothing_length": self.smoothing_length},
             "fluid_regions": regions,
             "walls": [[list(a), list(b)] for a, b in self.walls],
@@ -171,6 +175,12 @@ class Scene:
                        "time_step": "auto" if self.time_step is None else self.time_step,
                        "wall_restitution": self.wall_restitution},
         }
+        if self.gas_constant is not None:
+            out["fluid"]["gas_constant"] = self.gas_constant
+        if self.speed_of_sound is not None:
+            out["fluid"]["speed_of_sound"] = self.speed_of_sound
+        if self.artificial_viscosity != DEFAULT_ARTIFICIAL_VISCOSITY:
+            out["fluid"]["artificial_viscosity"] = self.artificial_viscosity
         if self.particle_mass is not None:
             out["resolution"]["particle_mass"] = self.particle_mass
         if self.surface_threshold is not None:
@@ -373,8 +383,9 @@ class _Validator:
             threshold = self.number(solver["surface_threshold"], "solver.surface_threshold",
                                     low=0, strict=False)
 
-        rho0 = k = None
+        rho0 = k = c0 = None
         eta, sigma = DEFAULT_VISCOSITY, DEFAULT_SURFACE_TENSION
+        alpha = DEFAULT_ARTIFICIAL_VISCOSITY
         fl = self.required(d, "fluid", "")
         if fl is not None and (fl := self.obj(fl, "fluid")) is not None:
             self.keys(fl, _FLUID_KEYS, "fluid.")
@@ -392,6 +403,11 @@ class _Validator:
             if "surface_tension" in fl:
                 sigma = self.number(fl["surface_tension"], "fluid.surface_tension", low=0,
                                     strict=False)
+            if "speed_of_sound" in fl:
+                c0 = self.number(fl["speed_of_sound"], "fluid.speed_of_sound", low=0)
+            if "artificial_viscosity" in fl:
+                alpha = self.number(fl["artificial_viscosity"], "fluid.artificial_viscosity",
+                                    low=0, strict=False)
 
         dx = h = mass = None
         res = self.required(d, "resolution", "")
@@ -443,7 +459,7 @@ class _Validator:
                       particle_mass=mass, regions=tuple(regions), walls=tuple(walls),
                       method=method, duration=duration, wall_restitution=restitution,
                       surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
-                      source=self.source)
+                      speed_of_sound=c0, artificial_viscosity=alpha, source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)
             if len(pos) == 0:

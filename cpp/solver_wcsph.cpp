@@ -1,0 +1,195 @@
+// The wcsph method: weakly compressible SPH as engineers use it (Monaghan 1994,
+// 2005; Becker & Teschner 2007). Summation density with the Wendland C2 kernel,
+// Tait EOS clamped at rho0 (no tension), symmetric pressure gradient, Monaghan's
+// artificial viscosity beside Morris' physical viscosity, kick-drift-kick time
+// stepping, and the same walls (ghosts + reflection) as the seed method.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "solver.hpp"
+#include "wendland.hpp"
+
+namespace sphfluid {
+
+void Solver::select_wcsph_step() {
+  static const StepFn steps[8] = {
+      &Solver::wcsph_step_impl<0>, &Solver::wcsph_step_impl<1>, &Solver::wcsph_step_impl<2>,
+      &Solver::wcsph_step_impl<3>, &Solver::wcsph_step_impl<4>, &Solver::wcsph_step_impl<5>,
+      &Solver::wcsph_step_impl<6>, &Solver::wcsph_step_impl<7>};
+  static const EvalFn evals[8] = {
+      &Solver::wcsph_evaluate_impl<0>, &Solver::wcsph_evaluate_impl<1>,
+      &Solver::wcsph_evaluate_impl<2>, &Solver::wcsph_evaluate_impl<3>,
+      &Solver::wcsph_evaluate_impl<4>, &Solver::wcsph_evaluate_impl<5>,
+      &Solver::wcsph_evaluate_impl<6>, &Solver::wcsph_evaluate_impl<7>};
+  step_fn_ = steps[features_];
+  eval_fn_ = evals[features_];
+}
+
+// Kick-drift-kick: v += dt/2 a; x += dt v (walls reflect); evaluate at the new
+// positions (the dissipative terms with the half-step velocity); v += dt/2 a.
+template <unsigned F>
+void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
+  if (dt > 0) {
+    last_limit_ = TimeStepLimit::kFixed;
+  } else {
+    dt = choose_dt(dt_cap);
+  }
+  last_dt_ = dt;
+  const Real half = Real(0.5) * dt;
+  integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
+  mark(kIntegrate);
+  remove_outside_domain();
+  mark(kDomain);
+  wcsph_evaluate_impl<F>();
+  const Index n = size();
+  // Second kick, into a fresh buffer: a non-finite result keeps the half step.
+  const Vec2* v = ps_.v.data();
+  const Vec2* a = ps_.a.data();
+  Vec2* v_new = ps_.v.begin_write(n);
+  bool bad = false;
+#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
+  for (Index i = 0; i < n; ++i) {
+    v_new[i] = v[i] + half * a[i];
+    bad = bad || !v_new[i].allFinite();
+  }
+  if (bad) {
+    for (Index i = 0; i < n; ++i)
+      if (!v_new[i].allFinite())
+        throw InstabilityError("step " + std::to_string(step_count_ + 1) + ": particle id " +
+                               std::to_string(ps_.id[i]) + " got a non-finite velocity in the "
+                               "second half-kick [check: finite] (the state kept is the "
+                               "half step)");
+  }
+  ps_.v.commit_write();
+  mark(kIntegrate);
+  time_ += dt;
+  ++step_count_;
+}
+
+template <unsigned F>
+void Solver::wcsph_evaluate_impl() {
+  mark_ = std::chrono::steady_clock::now();
+  const Index n = size();
+  const SimParams& P = params_;
+  const Wendland& W = wendland_;
+  grid_.sort(ps_.x.data(), n, P.h, 1, order_);
+  ps_.permute_state(order_, 1);
+  mark(kSort);
+  {
+    // Summation density over the neighbours, self included, while in cache.
+    const Vec2* x = ps_.x.data();
+    Real* rho = ps_.rho.data();
+    const Real m = P.mass, self = P.mass * W.value(0);
+    grid_.neighbours(x, n, P.h, threads_, nbrs_, [&](Index i, const Index* nbr, Index count) {
+      const Vec2 xi = x[i];
+      Real sum = 0;
+      for (Index q = 0; q < count; ++q) sum += W.value((xi - x[nbr[q]]).norm());
+      rho[i] = self + m * sum;
+    });
+  }
+  mark(kNeighbours);
+  if constexpr ((F & kWalls) != 0) {
+    const Vec2* x = ps_.x.data();
+    build_csr<Vec2>(n, threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
+      // Only ghosts on a segment's interior stand for a straight wall's
+      // half-plane; beyond a segment's free end the reflection alone acts.
+      walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
+        if (interior) out.push_back(r);
+      });
+    });
+    mark(kGhosts);
+  }
+
+  const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
+  Real* rho = ps_.rho.data();
+  Real* p = ps_.p.data();
+  p_over_rho2_.resize(n);
+  inv_rho_.resize(n);
+  Real* por2 = p_over_rho2_.data();
+  Real* inv_rho = inv_rho_.data();
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index i = 0; i < n; ++i) {
+    Real rho_i = rho[i];
+    if constexpr ((F & kWalls) != 0) {
+      // Each ghost stands for the wall's half-plane filled with fluid at rho0:
+      // its share of the density is rho0 times the kernel's integral over it.
+      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q)
+        rho_i += rho0 * W.wall_half(ghosts_.items[q].norm());
+      rho[i] = rho_i;
+    }
+    // Tait, gamma = 7, with the density clamped at rho0 from below: a free
+    // surface cannot pull (negative pressures there cause the tensile
+    // instability; SPlisHSPlasH's WCSPH clamps the same way).
+    const Real r = std::max(rho_i, rho0) / rho0, r2 = r * r, r3 = r2 * r;
+    p[i] = B * (r3 * r3 * r - 1);
+    inv_rho[i] = 1 / rho_i;
+    por2[i] = p[i] * inv_rho[i] * inv_rho[i];
+  }
+  mark(kDensity);
+
+  const Vec2* x = ps_.x.data();
+  const Vec2* v = ps_.v.data();
+  Vec2* a = ps_.a.data();
+  const Index* nbr = nbrs_.items.data();
+  const Real m = P.mass, hs = Real(0.5) * P.h;  // hs: the smoothing length (support 2 hs)
+  const Real eps2 = Real(0.01) * hs * hs;
+  const Real av = P.alpha * P.c0 * hs;  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
+  [[maybe_unused]] const Real eta2 = 2 * P.eta, sigma = P.sigma;
+  [[maybe_unused]] const Real threshold = P.effective_surface_threshold();
+  [[maybe_unused]] const Real lap_self = W.laplacian(0);
+  const Vec2 g = P.gravity;
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 xi = x[i], vi = v[i];
+    const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
+    Vec2 f = Vec2::Zero();
+    [[maybe_unused]] Vec2 normal = Vec2::Zero();
+    [[maybe_unused]] Real lap_c = 0;
+    if constexpr ((F & kSurfaceTension) != 0) lap_c = m * inv_i * lap_self;
+    for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
+      const Index j = nbr[q];
+      const Vec2 r = xi - x[j];
+      const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
+      const Vec2 gw = W.gradient(r, rl);
+      const Vec2 vij = vi - v[j];
+      Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
+      const Real vr = vij.dot(r);
+      if (vr < 0) coef -= av * vr / (r2 + eps2) * 2 / (rhoi + rho[j]);  // + Pi_ij
+      f -= (m * coef) * gw;
+      if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
+        f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) / (r2 + eps2)) * vij;
+      if constexpr ((F & kSurfaceTension) != 0) {
+        const Real vol = m * inv_rho[j];
+        normal += vol * gw;
+        lap_c += vol * W.laplacian(rl);
+      }
+    }
+    if constexpr ((F & kWalls) != 0) {
+      // A ghost at the foot of the perpendicular stands for the wall's
+      // half-plane of fluid at rest with the particle's pressure (its positive
+      // part: walls push, never pull). The pressure pair summed over that
+      // half-plane is 2 p_i rho0 / rho_i^2 times the kernel's integral along
+      // the wall line, pointing away from the wall.
+      const Real pw2 = std::max(pi2, Real(0));
+      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q) {
+        const Vec2& r = ghosts_.items[q];
+        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
+        const Vec2 gw = W.gradient(r, rl);
+        if (rl > 0) f += (2 * pw2 * rho0 * W.wall_line(rl) / rl) * r;
+        const Real vr = vi.dot(r);
+        if (vr < 0) f += (m * av * vr / (r2 + eps2) * inv_i) * gw;
+        if constexpr ((F & kViscosity) != 0)
+          f += (m * eta2 * inv_i * inv_i * r.dot(gw) / (r2 + eps2)) * vi;
+      }
+    }
+    if constexpr ((F & kSurfaceTension) != 0) {
+      const Real norm = normal.norm();
+      if (norm > threshold) f -= (sigma * lap_c / norm * inv_i) * normal;
+    }
+    a[i] = f + g;
+  }
+  mark(kForces);
+}
+
+}  // namespace sphfluid
