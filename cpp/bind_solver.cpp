@@ -69,6 +69,8 @@ void bind_solver(py::module_& m) {
       .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)")
       .def_readwrite("cfl", &SimParams::cfl, "CFL factor of the adaptive time step")
       .def_readwrite("dt_max", &SimParams::dt_max, "cap on the adaptive time step, s (0: none)")
+      .def_readwrite("surface_length", &SimParams::surface_length,
+                     "initial free-surface length, m, for the guard's surface-energy bound")
       .def_readwrite("guard", &SimParams::guard,
                      "check density, speed and energy after every step (non-finite values "
                      "are always caught)")

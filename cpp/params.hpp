@@ -71,6 +71,9 @@ struct SimParams {
   // Blow-up guard, checked after every step; a trip raises InstabilityError
   // and leaves the state of the step before.
   bool guard = true;  // false: only non-finite values are caught (for measuring its cost)
+  // Total length of the fluid's initial free surface, m, for the guard's bound on
+  // the surface energy sigma x length; 0: bound it by sigma x (particles x h).
+  Real surface_length = 0;
   Real guard_density_ratio = 3.0;  // rho > ratio * rho0
   Real guard_speed_factor = 10.0;  // |v| > factor * sound speed
   Real guard_energy_factor = 2.0;  // kinetic energy > factor * what the scene can supply

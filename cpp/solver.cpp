@@ -167,7 +167,9 @@ void Solver::compute_energy_budget() {
                          Vec2(P.domain_max.x(), P.domain_min.y())})
       release = std::max(release, n * m * P.gravity.dot(c - centre));
   }
-  const Real surface = P.sigma * n * P.h;  // sigma times a perimeter longer than any possible
+  // Surface energy that tension can release: sigma times the initial surface
+  // length (or, unknown, a length longer than any n particles can have).
+  const Real surface = P.sigma * (P.surface_length > 0 ? P.surface_length : n * P.h);
   const Real c = P.sound_speed();
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
   energy_budget_ = kinetic + release + elastic + surface + floor;

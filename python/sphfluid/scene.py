@@ -97,6 +97,14 @@ class Region:
             return math.pi * self.radius**2
         return abs(_polygon_signed_area(self.points))
 
+    def perimeter(self) -> float:
+        if self.shape == "rectangle":
+            (x0, y0), (x1, y1) = self.points
+            return 2 * ((x1 - x0) + (y1 - y0))
+        if self.shape == "circle":
+            return 2 * math.pi * self.radius
+        return sum(math.dist(a, b) for a, b in _edges(self.points))
+
     def contains(self, x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
         if self.shape == "rectangle":
             (x0, y0), (x1, y1) = self.points

@@ -72,6 +72,8 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
     p.threads = 0 if threads is None else int(threads)
     p.cfl = scene.cfl
+    # The guard bounds the surface energy by sigma x the regions' perimeters.
+    p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0
     return p
 
