@@ -25,14 +25,14 @@ MM_Z = np.array([1.0, 1.11, 1.22, 1.44, 1.67, 1.89, 2.11, 2.33, 2.56, 2.78, 3.00
                  3.67, 3.89, 4.11])
 
 
-def dam_break_scene(n_target: int) -> dict:
+def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     """The bundled dam break (1 x 2 m column, 4 m tank) at about n_target particles.
 
     dt scales with the spacing (a fixed CFL number), so every N runs the same
-    physics: dt = 0.0002 s at dx = 0.02 m.
+    physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0.
     """
     dx = math.sqrt(2.0 / n_target)
-    return {
+    scene = {
         "format": "sphfluid-scene/1",
         "name": f"Dam break, {n_target:,} particles",
         "gravity": [0.0, -9.81],
@@ -41,8 +41,14 @@ def dam_break_scene(n_target: int) -> dict:
         "resolution": {"spacing": dx, "smoothing_length": 2 * dx},
         "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]}],
         "walls": [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}],
-        "solver": {"method": "seed", "time_step": 0.0002 * dx / 0.02},
+        "solver": {"method": method, "time_step": 0.0002 * dx / 0.02},
     }
+    if method == "wcsph":  # a fixed step within its CFL limit: 0.3 (h/2) / c0
+        from .scene import load_scene
+        from .simulation import speed_of_sound
+
+        scene["solver"]["time_step"] = 0.3 * dx / speed_of_sound(load_scene(scene))
+    return scene
 
 
 def front_error(sim: Simulation, a: float = 1.0) -> tuple[float, float, float]:
@@ -127,8 +133,8 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
 
 
-def run_case(n_target: int, threads: int, steps: int, warmup: int) -> dict:
-    sim = Simulation(dam_break_scene(n_target), threads=threads)
+def run_case(n_target: int, threads: int, steps: int, warmup: int, method: str = "seed") -> dict:
+    sim = Simulation(dam_break_scene(n_target, method), threads=threads)
     sim.step(warmup)
     sim._solver.reset_phase_seconds()
     n = sim.n_particles
@@ -233,7 +239,7 @@ def main(args) -> int:
     runs: dict[int, list[dict]] = {t: [] for t in threads}
     for _ in range(args.repeat):  # interleaved, so slow spells of a shared machine hit all
         for t in threads:
-            r = run_case(args.particles, t, args.steps, args.warmup)
+            r = run_case(args.particles, t, args.steps, args.warmup, args.method)
             runs[t].append(r)
             print(f"{t} thread(s): {r['particles']:,} particles, {r['steps_per_s']:,.0f} "
                   f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
@@ -243,7 +249,7 @@ def main(args) -> int:
     command = "sphfluid bench " + " ".join(
         f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
                                   ("warmup", args.warmup), ("threads", args.threads),
-                                  ("repeat", args.repeat)))
+                                  ("repeat", args.repeat), ("method", args.method)))
     text = table(rows, command)
     print(text)
     if args.write:

@@ -89,6 +89,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--steps", type=_count, default=1000)
     b.add_argument("--warmup", type=_count, default=100)
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
+    b.add_argument("--method", choices=("seed", "wcsph"), default="seed",
+                   help="the method to time (the same fixed dt for both)")
     b.add_argument("--repeat", type=_count, default=3,
                    help="runs per thread count, interleaved; the median is reported")
     b.add_argument("--write", type=Path, help="write the table into this Markdown file")
