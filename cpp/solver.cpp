@@ -292,7 +292,7 @@ void Solver::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
-  sort_and_find_neighbours();
+  sort_and_find_neighbours([this](Real r2) { return kern_.w_poly6(r2); });  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
     // Wall ghosts of every particle, found once and reused by both passes.
     const Vec2* x = ps_.x.data();
@@ -307,9 +307,11 @@ void Solver::evaluate_impl() {
   mark(kForces);
 }
 
-// Also sums the fluid part of each density (seed eq. 10, self term included)
-// while the neighbours are in cache; compute_density adds walls and the EOS.
-void Solver::sort_and_find_neighbours() {
+// Sorts the particles by cell, builds the neighbour lists, and sums the fluid
+// part of each density, rho_i = m (w(0) + sum_j w(r_ij^2)), in the same pass
+// while the neighbours are in cache; w is the method's kernel of r^2.
+template <class KernelOfR2>
+void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   const Index n = size();
   // The sort runs on one thread: measured, its loops are too short at 10k
   // particles to pay for waking a second one (2 threads took 3x longer).
@@ -318,15 +320,17 @@ void Solver::sort_and_find_neighbours() {
   mark(kSort);
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
-  const Real m = params_.mass, self = params_.mass * kern_.w_poly6(0);
+  const Real m = params_.mass, self = w(Real(0));
   grid_.neighbours(x, n, params_.h, threads_, nbrs_, [&](Index i, const Index* nbr, Index count) {
     const Vec2 xi = x[i];
-    Real sum = 0;
-    for (Index q = 0; q < count; ++q) sum += kern_.w_poly6((xi - x[nbr[q]]).squaredNorm());
-    rho[i] = self + m * sum;
+    Real sum = self;
+    for (Index q = 0; q < count; ++q) sum += w((xi - x[nbr[q]]).squaredNorm());
+    rho[i] = m * sum;
   });
   mark(kNeighbours);
 }
+
+template void Solver::sort_and_find_neighbours(Wendland::OfR2);
 
 // Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15).
 template <unsigned F>

@@ -101,7 +101,7 @@ class Solver {
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
   template <unsigned F> void integrate(Real dt, Real kick);
-  void sort_and_find_neighbours();
+  template <class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
   void remove_outside_domain();
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
                    const std::vector<Id>& ids) const;

@@ -73,22 +73,7 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  grid_.sort(ps_.x.data(), n, P.h, 1, order_);
-  ps_.permute_state(order_, 1);
-  mark(kSort);
-  {
-    // Summation density over the neighbours, self included, while in cache.
-    const Vec2* x = ps_.x.data();
-    Real* rho = ps_.rho.data();
-    const Real m = P.mass, self = P.mass * W.value(0);
-    grid_.neighbours(x, n, P.h, threads_, nbrs_, [&](Index i, const Index* nbr, Index count) {
-      const Vec2 xi = x[i];
-      Real sum = 0;
-      for (Index q = 0; q < count; ++q) sum += W.value((xi - x[nbr[q]]).norm());
-      rho[i] = self + m * sum;
-    });
-  }
-  mark(kNeighbours);
+  sort_and_find_neighbours(Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     const Vec2* x = ps_.x.data();
     build_csr<Vec2>(n, threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {

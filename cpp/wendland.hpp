@@ -46,6 +46,12 @@ struct Wendland {
     return t[k] + (f - k) * (t[k + 1] - t[k]);
   }
   Real wall_line(Real d) const { return table(line_, d); }
+
+  // W as a function of r^2, for the shared density pass.
+  struct OfR2 {
+    const Wendland* k;
+    Real operator()(Real r2) const { return k->value(std::sqrt(r2)); }
+  };
   Real wall_half(Real d) const { return table(half_, d); }
 
   Real value(Real r) const {

@@ -38,6 +38,12 @@ class Outcome:
     lost: int  # particles removed from the domain or outside the container
 
 
+def check_name(error: InstabilityError) -> str:
+    """The guard check named in an InstabilityError's message."""
+    m = re.search(r"\[check: (\w+)\]", str(error))
+    return m.group(1) if m else "guard"
+
+
 def tank_scene(kind: str, spacing: float, duration: float) -> dict:
     """The dam break or the splash of scenes/, at a coarser spacing for sweeps.
 
@@ -88,9 +94,7 @@ def run_one(scene: dict, max_wall: float) -> Outcome:
                 detail = f"stopped at t = {sim.time:.3g} s (over {max_wall:g} s of wall time)"
                 break
     except InstabilityError as e:
-        status = CAUGHT
-        m = re.search(r"\[check: (\w+)\]", str(e))
-        detail = m.group(1) if m else "guard"
+        status, detail = CAUGHT, check_name(e)
     wall = time.perf_counter() - start
     lost = sim.removed_particles
     if box is not None and sim.n_particles:
@@ -197,9 +201,7 @@ def run_violent(name: str, d: dict, max_wall: float) -> Outcome:
                 detail = f"stopped after {done:,} steps (wall time)"
                 break
     except InstabilityError as e:
-        status = CAUGHT
-        m = re.search(r"\[check: (\w+)\]", str(e))
-        detail = m.group(1) if m else "guard"
+        status, detail = CAUGHT, check_name(e)
     x = sim.positions
     outside = int(((x < 0.0) | (x > 1.0)).any(axis=1).sum()) + sim.removed_particles
     if status == STABLE and outside:
