@@ -83,6 +83,7 @@ struct SimParams {
   // artificial viscosity with coefficient alpha.
   Real c0 = 0;       // speed of sound, m/s (> 0 for wcsph)
   Real alpha = 0.1;  // artificial viscosity
+  Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
   static constexpr Real kTaitGamma = 7;
 
   // Speed of sound of the method's EOS: sqrt(k) for the seed's p = k (rho - rho0)

@@ -60,7 +60,8 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   require(std::isfinite(P.alpha) && P.alpha >= 0, "artificial viscosity alpha must be >= 0");
   threads_ = resolve_threads(P.threads);
   walls_ = WallSet(std::move(walls), P.h);
-  if (P.method == Method::kWcsph) wendland_.build_wall_tables();
+  require(std::isfinite(P.spacing) && P.spacing >= 0, "spacing must be >= 0");
+  if (P.method == Method::kWcsph) wendland_.build_wall_tables(P.spacing, P.mass / P.rho0);
 
   select_step();
   set_state(std::move(positions), std::move(velocities), std::move(ids));

@@ -12,9 +12,10 @@ namespace sphfluid {
 struct Wendland {
   Real h, h2, inv_h;
   Real w, grad, lap;  // 7/(pi h^2), -140/(pi h^4), -140/(pi h^4)
-  // Wall integrals of W at distance d from a straight wall, tabulated on
-  // kTable + 1 points of d in [0, h]: line(d) = int W(sqrt(x^2 + d^2)) dx along
-  // the wall, half(d) = int over the half-plane beyond the wall of W dA.
+  // A straight wall's share of a particle at distance d, tabulated on kTable + 1
+  // points of d in [0, h]: half(d), the density share over rho0, and line(d),
+  // the normal pressure push per unit 2 p rho0 / rho^2 (continuum: the
+  // integral of W along the wall line; half is then its integral beyond d).
   static constexpr int kTable = 256;
   std::vector<Real> line_, half_;
 
@@ -22,7 +23,15 @@ struct Wendland {
       : h(h_), h2(h_ * h_), inv_h(1 / h_), w(7 / (kPi * h_ * h_)),
         grad(-140 / (kPi * h_ * h_ * h_ * h_)), lap(-140 / (kPi * h_ * h_ * h_ * h_)) {}
 
-  void build_wall_tables() {
+  // Continuum tables by default; with a lattice spacing dx > 0 the wall's fluid
+  // is instead the mirror image of the square lattice of particles of mass m,
+  // so that a lattice resting against a wall has exactly its interior density.
+  // Both tables are divided by rho0 (the caller multiplies by it).
+  void build_wall_tables(Real dx = 0, Real m_over_rho0 = 0) {
+    if (dx > 0) {
+      build_lattice_tables(dx, m_over_rho0);
+      return;
+    }
     line_.assign(kTable + 1, 0);
     half_.assign(kTable + 1, 0);
     const int nx = 400;
@@ -39,6 +48,32 @@ struct Wendland {
     for (int k = kTable - 1; k >= 0; --k)
       half_[k] = half_[k + 1] + Real(0.5) * (line_[k] + line_[k + 1]) * h / kTable;
   }
+
+  // A particle at distance d from the wall sees the mirrored lattice at normal
+  // distances 2d + k dx (k >= 0) and tangential offsets i dx: half(d) sums W
+  // there and line(d) the normal part of -grad W, each times m / rho0.
+  void build_lattice_tables(Real dx, Real m_over_rho0) {
+    line_.assign(kTable + 1, 0);
+    half_.assign(kTable + 1, 0);
+    const int reach = static_cast<int>(std::ceil(h / dx)) + 1;
+    for (int t = 0; t <= kTable; ++t) {
+      const Real d = h * t / kTable;
+      Real sw = 0, sg = 0;
+      for (int k = 0; 2 * d + k * dx < h; ++k) {
+        const Real dn = 2 * d + k * dx;
+        for (int i = -reach; i <= reach; ++i) {
+          const Real r = std::sqrt(dn * dn + (i * dx) * (i * dx));
+          if (r >= h) continue;
+          const Real a = 1 - r * inv_h;
+          sw += value(r);
+          sg += -grad * a * a * a * dn;
+        }
+      }
+      half_[t] = sw * m_over_rho0;
+      line_[t] = sg * m_over_rho0;
+    }
+  }
+
   Real table(const std::vector<Real>& t, Real d) const {
     const Real f = d * inv_h * kTable;
     if (f >= kTable) return 0;
@@ -46,13 +81,13 @@ struct Wendland {
     return t[k] + (f - k) * (t[k + 1] - t[k]);
   }
   Real wall_line(Real d) const { return table(line_, d); }
+  Real wall_half(Real d) const { return table(half_, d); }
 
   // W as a function of r^2, for the shared density pass.
   struct OfR2 {
     const Wendland* k;
     Real operator()(Real r2) const { return k->value(std::sqrt(r2)); }
   };
-  Real wall_half(Real d) const { return table(half_, d); }
 
   Real value(Real r) const {
     const Real q = r * inv_h;
