@@ -109,6 +109,16 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   compute_energy_budget();  // pouring is an energy input: the guard's budget grows with it
 }
 
+// Wall ghosts of every particle, found once per step and reused by every pass.
+void Solver::find_ghosts(bool interior_only) {
+  const Vec2* x = ps_.x.data();
+  build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
+    walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
+      if (interior || !interior_only) out.push_back(r);
+    });
+  });
+}
+
 void Solver::set_threads(int threads) {
   require(threads >= 0, "threads must be >= 0");
   threads_ = resolve_threads(threads);
@@ -295,11 +305,7 @@ void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   sort_and_find_neighbours([this](Real r2) { return kern_.w_poly6(r2); });  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
-    // Wall ghosts of every particle, found once and reused by both passes.
-    const Vec2* x = ps_.x.data();
-    build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
-      walls_.for_each_ghost(x[i], [&](const Vec2& r, bool) { out.push_back(r); });
-    });
+    find_ghosts(false);
     mark(kGhosts);
   }
   compute_density<F>();

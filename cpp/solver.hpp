@@ -106,6 +106,7 @@ class Solver {
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
                    const std::vector<Id>& ids) const;
   void select_step();
+  void find_ghosts(bool interior_only);
 
   using StepFn = void (Solver::*)(Real, Real);
   using EvalFn = void (Solver::*)();

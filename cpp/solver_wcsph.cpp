@@ -75,14 +75,9 @@ void Solver::wcsph_evaluate_impl() {
   const Wendland& W = wendland_;
   sort_and_find_neighbours(Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
-    const Vec2* x = ps_.x.data();
-    build_csr<Vec2>(n, threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
-      // Only ghosts on a segment's interior stand for a straight wall's
-      // half-plane; beyond a segment's free end the reflection alone acts.
-      walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
-        if (interior) out.push_back(r);
-      });
-    });
+    // Only ghosts on a segment's interior stand for a straight wall's fluid
+    // side; beyond a segment's free end the reflection alone acts.
+    find_ghosts(true);
     mark(kGhosts);
   }
 

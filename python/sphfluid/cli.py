@@ -243,11 +243,16 @@ def _run(args) -> int:
 
 
 def _size(text: str) -> tuple[int, int] | None:
+    """WxH in pixels, or None after printing why not."""
     try:
         w, h = (int(x) for x in text.lower().split("x"))
     except ValueError:
-        return None
-    return (w, h) if w >= 100 and h >= 100 else None
+        w = h = 0
+    if w >= 100 and h >= 100:
+        return (w, h)
+    print(f"error: --size: expected WxH of at least 100x100 pixels, got {text!r}",
+          file=sys.stderr)
+    return None
 
 
 def _view(args) -> int:
@@ -255,8 +260,6 @@ def _view(args) -> int:
 
     size = _size(args.size)
     if size is None:
-        print(f"error: --size: expected WxH of at least 100x100 pixels, got {args.size!r}",
-              file=sys.stderr)
         return EXIT_BAD_INPUT
     return view(args.scene, frames=args.frames, screenshot=args.screenshot,
                 steps_per_frame=args.steps_per_frame, size=size, threads=args.threads,
@@ -269,8 +272,6 @@ def _record(args) -> int:
 
     size = _size(args.size)
     if size is None:
-        print(f"error: --size: expected WxH of at least 100x100 pixels, got {args.size!r}",
-              file=sys.stderr)
         return EXIT_BAD_INPUT
     bar = _ProgressBar(1.0)
 
