@@ -57,6 +57,14 @@ void bind_solver(py::module_& m) {
           "domain_max", [](const SimParams& p) { return vec_to_pair(p.domain_max); },
           [](SimParams& p, const std::array<double, 2>& g) { p.domain_max = pair_to_vec(g); },
           "upper corner of the domain, m")
+      .def_property(
+          "periodic",
+          [](const SimParams& p) { return std::array<bool, 2>{p.periodic_x, p.periodic_y}; },
+          [](SimParams& p, const std::array<bool, 2>& a) {
+            p.periodic_x = a[0];
+            p.periodic_y = a[1];
+          },
+          "periodic axes [x, y]: the domain wraps along them")
       .def_readwrite("surface_threshold", &SimParams::surface_threshold,
                      "|grad c| above which surface tension acts, 1/m (< 0: 0.323 / h)")
       .def_property_readonly("effective_surface_threshold",

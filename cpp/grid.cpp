@@ -10,7 +10,7 @@
 namespace sphfluid {
 
 void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
-                    std::vector<Index>& order) {
+                    std::vector<Index>& order, const PeriodicBox& box) {
   Vec2 lo(0, 0), hi(0, 0);
   if (n > 0) {
     lo = hi = x[0];
@@ -19,10 +19,22 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       hi = hi.cwiseMax(x[i]);
     }
   }
-  inv_cell_ = 1 / cell_size;
-  origin_ = lo;
-  const double cx = std::floor((hi.x() - lo.x()) * inv_cell_) + 1;
-  const double cy = std::floor((hi.y() - lo.y()) * inv_cell_) + 1;
+  const Real inv_cell = 1 / cell_size;
+  double cx = std::floor((hi.x() - lo.x()) * inv_cell) + 1;
+  double cy = std::floor((hi.y() - lo.y()) * inv_cell) + 1;
+  // A periodic axis spans the box with a whole number of cells of at least the
+  // cell size, so that the last cell borders the first across the seam.
+  Vec2 inv(inv_cell, inv_cell);
+  if (box.x) {
+    lo.x() = box.lo.x();
+    cx = std::max(1.0, std::floor(box.length.x() / cell_size));
+    inv.x() = cx / box.length.x();
+  }
+  if (box.y) {
+    lo.y() = box.lo.y();
+    cy = std::max(1.0, std::floor(box.length.y() / cell_size));
+    inv.y() = cy / box.length.y();
+  }
   // The solver removes particles that leave the finite domain, and the scene
   // loader bounds the domain's cell count, so this only trips on a logic error.
   if (!(cx * cy < 2.0e9))
@@ -35,12 +47,12 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   unsorted_cell_.resize(n);
   cell_start_.assign(n_cells + 1, 0);
   Index* cell = unsorted_cell_.data();
-  const Real inv = inv_cell_;
   const Index nx = nx_, ny = ny_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index i = 0; i < n; ++i) {
-    const Index ix = std::min<Index>(static_cast<Index>((x[i].x() - lo.x()) * inv), nx - 1);
-    const Index iy = std::min<Index>(static_cast<Index>((x[i].y() - lo.y()) * inv), ny - 1);
+    // Clamped both ways: a wrapped position may round to the box's far edge.
+    const Index ix = std::clamp<Index>(static_cast<Index>((x[i].x() - lo.x()) * inv.x()), 0, nx - 1);
+    const Index iy = std::clamp<Index>(static_cast<Index>((x[i].y() - lo.y()) * inv.y()), 0, ny - 1);
     cell[i] = iy * nx + ix;
   }
   for (Index i = 0; i < n; ++i) ++cell_start_[cell[i] + 1];

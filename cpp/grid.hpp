@@ -1,12 +1,15 @@
 // Uniform cell grid over the particles' bounding box (cells of size h): a stable
 // counting sort that yields the cell-ordered permutation, cell ranges with a guard
 // entry, and the CSR neighbour list (all j != i with |r_ij| < h) built from them.
+// Along a periodic axis the grid spans the box exactly (cells of at least h)
+// and the neighbour cells wrap around.
 #pragma once
 
 #include <algorithm>
 #include <vector>
 
 #include "parallel.hpp"
+#include "periodic.hpp"
 #include "types.hpp"
 
 namespace sphfluid {
@@ -15,7 +18,9 @@ class CellGrid {
  public:
   // Bin the n positions into cells of size `cell` and return in `order` the
   // stable cell-major permutation (order[k] = index of the k-th particle).
-  void sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order);
+  // Along box's periodic axes the positions must lie in the box.
+  void sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
+            const PeriodicBox& box = PeriodicBox());
 
   // After the particles were permuted by `order`: neighbour list for radius h.
   // visit(i, nbrs, count) runs right after particle i's list is built, while
@@ -50,6 +55,35 @@ class CellGrid {
     });
   }
 
+  // The same across the periodic seams of the box given to sort(): separations
+  // are minimum images, and a periodic axis needs a box length of at least 2 h
+  // so that no pair meets twice.
+  template <class Visit>
+  void neighbours_periodic(const Vec2* x, Index n, Real h, int threads, const PeriodicBox& box,
+                           Csr<Index>& out, Visit visit) const {
+    const Real h2 = h * h;
+    build_csr<Index>(n, threads, out, [&](Index i, Chunk<Index>& list) {
+      const Index c = cell_of_[i];
+      const Index cy = c / nx_, cx = c - cy * nx_;
+      Span cols[2], rows[2];
+      const int n_cols = around(cx, nx_, box.x, cols), n_rows = around(cy, ny_, box.y, rows);
+      Index candidates = 0;
+      for_cells(rows, n_rows, cols, n_cols, [&](Index j0, Index j1) { candidates += j1 - j0; });
+      const std::size_t base = list.size();
+      Index* found = list.extend(candidates);
+      Index count = 0;
+      const Vec2 xi = x[i];
+      for_cells(rows, n_rows, cols, n_cols, [&](Index j0, Index j1) {
+        for (Index j = j0; j < j1; ++j) {
+          found[count] = j;
+          count += static_cast<Index>((box.delta(xi, x[j]).squaredNorm() < h2) & (j != i));
+        }
+      });
+      list.resize(base + count);
+      visit(i, found, count);
+    });
+  }
+
   Index nx() const { return nx_; }
   Index ny() const { return ny_; }
   std::size_t n_cells() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
@@ -57,8 +91,42 @@ class CellGrid {
   Index cell_start(std::size_t c) const { return cell_start_[c]; }
 
  private:
-  Vec2 origin_{0, 0};
-  Real inv_cell_ = 1;
+  struct Span {
+    Index first, last;  // inclusive cell indices along one axis
+  };
+  // The cells next to cell c (of nc along the axis), as one or two runs of
+  // consecutive indices; a wrapping axis of fewer than 3 cells is one run of all.
+  static int around(Index c, Index nc, bool wrap, Span* runs) {
+    if (!wrap) {
+      runs[0] = {std::max<Index>(c - 1, 0), std::min<Index>(c + 1, nc - 1)};
+      return 1;
+    }
+    if (nc < 3) {
+      runs[0] = {0, nc - 1};
+      return 1;
+    }
+    if (c == 0) {
+      runs[0] = {0, 1};
+      runs[1] = {nc - 1, nc - 1};
+      return 2;
+    }
+    if (c == nc - 1) {
+      runs[0] = {0, 0};
+      runs[1] = {nc - 2, nc - 1};
+      return 2;
+    }
+    runs[0] = {c - 1, c + 1};
+    return 1;
+  }
+  // f(j0, j1) for the storage range of each row's run of cells.
+  template <class F>
+  void for_cells(const Span* rows, int n_rows, const Span* cols, int n_cols, F f) const {
+    for (int r = 0; r < n_rows; ++r)
+      for (Index yy = rows[r].first; yy <= rows[r].last; ++yy)
+        for (int k = 0; k < n_cols; ++k)
+          f(cell_start_[yy * nx_ + cols[k].first], cell_start_[yy * nx_ + cols[k].last + 1]);
+  }
+
   Index nx_ = 0, ny_ = 0;
   std::vector<Index> cell_start_;  // n_cells + 1 (last entry is the guard)
   std::vector<Index> cell_of_;     // cell of each particle, in sorted order

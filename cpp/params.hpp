@@ -14,7 +14,9 @@ enum Feature : unsigned {
   kViscosity = 1u << 0,       // eta > 0: seed eq. 17
   kSurfaceTension = 1u << 1,  // sigma > 0: seed eqs. 18-20
   kWalls = 1u << 2,           // at least one wall segment: seed section 4
+  kPeriodic = 1u << 3,        // the domain wraps along x and/or y
 };
+constexpr unsigned kNumFeatureSets = 16;
 
 enum class Method : int { kSeed = 0, kWcsph = 1 };
 
@@ -42,6 +44,10 @@ struct SimParams {
   Vec2 gravity{0.0, -9.81};  // m/s^2
   Vec2 domain_min{-1.0, -1.0};  // particles leaving this box are removed, m
   Vec2 domain_max{1.0, 1.0};
+  // Periodic axes: a particle leaving the domain's side re-enters at the
+  // opposite one, and neighbours are found across the seam.
+  bool periodic_x = false;
+  bool periodic_y = false;
 
   // Threshold on |grad c| above which surface tension acts (Mueller 2003).
   // A negative value selects the default kSurfaceThresholdTimesH / h.

@@ -59,6 +59,11 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
           "wcsph needs a speed of sound c0 > 0");
   require(std::isfinite(P.alpha) && P.alpha >= 0, "artificial viscosity alpha must be >= 0");
   threads_ = resolve_threads(P.threads);
+  box_ = PeriodicBox(P.domain_min, P.domain_max, P.periodic_x, P.periodic_y);
+  require(!box_.x || box_.length.x() >= 2 * P.h,
+          "a periodic x axis needs a domain at least 2 h wide");
+  require(!box_.y || box_.length.y() >= 2 * P.h,
+          "a periodic y axis needs a domain at least 2 h high");
   walls_ = WallSet(std::move(walls), P.h);
   require(std::isfinite(P.spacing) && P.spacing >= 0, "spacing must be >= 0");
   if (P.method == Method::kWcsph) wendland_.build_wall_tables(P.spacing, P.mass / P.rho0);
@@ -70,16 +75,10 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
 void Solver::select_step() {
   const SimParams& P = params_;
   features_ = (P.eta > 0 ? kViscosity : 0u) | (P.sigma > 0 ? kSurfaceTension : 0u) |
-              (walls_.empty() ? 0u : kWalls);
+              (walls_.empty() ? 0u : kWalls) | (box_.any() ? kPeriodic : 0u);
   // One instantiation of the whole step per feature set, chosen here once.
-  static const StepFn steps[8] = {
-      &Solver::step_impl<0>, &Solver::step_impl<1>, &Solver::step_impl<2>,
-      &Solver::step_impl<3>, &Solver::step_impl<4>, &Solver::step_impl<5>,
-      &Solver::step_impl<6>, &Solver::step_impl<7>};
-  static const EvalFn evals[8] = {
-      &Solver::evaluate_impl<0>, &Solver::evaluate_impl<1>, &Solver::evaluate_impl<2>,
-      &Solver::evaluate_impl<3>, &Solver::evaluate_impl<4>, &Solver::evaluate_impl<5>,
-      &Solver::evaluate_impl<6>, &Solver::evaluate_impl<7>};
+  static const StepFn steps[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(step_impl);
+  static const EvalFn evals[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(evaluate_impl);
   step_fn_ = steps[features_];
   eval_fn_ = evals[features_];
   if (P.method == Method::kWcsph) select_wcsph_step();
@@ -104,6 +103,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
     ps_.v[n + i] = velocities[i];
     ps_.id[n + i] = next + i;
   }
+  wrap_positions();
   remove_outside_domain();
   compute_forces();
   compute_energy_budget();  // pouring is an energy input: the guard's budget grows with it
@@ -117,6 +117,11 @@ void Solver::find_ghosts(bool interior_only) {
       if (interior || !interior_only) out.push_back(r);
     });
   });
+}
+
+void Solver::wrap_positions() {
+  if (!box_.any()) return;
+  for (Index i = 0; i < size(); ++i) ps_.x[i] = box_.wrap(ps_.x[i]);
 }
 
 void Solver::set_threads(int threads) {
@@ -145,6 +150,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
     ps_.v[i] = velocities[i];
     ps_.id[i] = ids.empty() ? Id(i) : ids[i];
   }
+  wrap_positions();
   remove_outside_domain();
   compute_forces();
   compute_energy_budget();
@@ -303,7 +309,8 @@ void Solver::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
-  sort_and_find_neighbours([this](Real r2) { return kern_.w_poly6(r2); });  // seed eq. 10
+  sort_and_find_neighbours<(F & kPeriodic) != 0>(
+      [this](Real r2) { return kern_.w_poly6(r2); });  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -317,27 +324,36 @@ void Solver::evaluate_impl() {
 // Sorts the particles by cell, builds the neighbour lists, and sums the fluid
 // part of each density, rho_i = m (w(0) + sum_j w(r_ij^2)), in the same pass
 // while the neighbours are in cache; w is the method's kernel of r^2.
-template <class KernelOfR2>
+template <bool Periodic, class KernelOfR2>
 void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   const Index n = size();
   // The sort runs on one thread: measured, its loops are too short at 10k
   // particles to pay for waking a second one (2 threads took 3x longer).
-  grid_.sort(ps_.x.data(), n, params_.h, 1, order_);
+  grid_.sort(ps_.x.data(), n, params_.h, 1, order_, box_);
   ps_.permute_state(order_, 1);
   mark(kSort);
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
-  grid_.neighbours(x, n, params_.h, threads_, nbrs_, [&](Index i, const Index* nbr, Index count) {
+  auto density = [&](Index i, const Index* nbr, Index count) {
     const Vec2 xi = x[i];
     Real sum = self;
-    for (Index q = 0; q < count; ++q) sum += w((xi - x[nbr[q]]).squaredNorm());
+    for (Index q = 0; q < count; ++q) {
+      const Vec2 r = Periodic ? box_.delta(xi, x[nbr[q]]) : Vec2(xi - x[nbr[q]]);
+      sum += w(r.squaredNorm());
+    }
     rho[i] = m * sum;
-  });
+  };
+  if constexpr (Periodic) {
+    grid_.neighbours_periodic(x, n, params_.h, threads_, box_, nbrs_, density);
+  } else {
+    grid_.neighbours(x, n, params_.h, threads_, nbrs_, density);
+  }
   mark(kNeighbours);
 }
 
-template void Solver::sort_and_find_neighbours(Wendland::OfR2);
+template void Solver::sort_and_find_neighbours<false>(Wendland::OfR2);
+template void Solver::sort_and_find_neighbours<true>(Wendland::OfR2);
 
 // Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15).
 template <unsigned F>
@@ -399,7 +415,7 @@ void Solver::compute_accelerations() {
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m / rhoi * lap_self;
     for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
       const Index j = nbr[q];
-      const Vec2 r = xi - x[j];
+      const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm();
       const Real rl = std::sqrt(r2);
       const Real inv_rho_j = inv_rho[j];
@@ -462,6 +478,7 @@ void Solver::integrate(Real dt, Real kick) {
     Vec2 xi = x_old + dt * vi;
     if constexpr ((F & kWalls) != 0)
       if (xi.allFinite() && vi.allFinite()) walls_.collide(x_old, xi, vi, e);
+    if constexpr ((F & kPeriodic) != 0) xi = box_.wrap(xi);
     const Real v2 = vi.squaredNorm();
     // Written so that NaN fails every comparison and so trips.
     bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max);

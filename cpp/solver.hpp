@@ -14,6 +14,7 @@
 #include "kernels.hpp"
 #include "params.hpp"
 #include "particles.hpp"
+#include "periodic.hpp"
 #include "walls.hpp"
 #include "wendland.hpp"
 
@@ -33,6 +34,16 @@ inline const char* phase_name(int p) {
                                           "forces", "integrate",  "domain"};
   return names[p];
 }
+
+// The kNumFeatureSets instantiations of a member template of Solver, indexed
+// by feature set (used to fill the step dispatch tables).
+#define SPHFLUID_FEATURE_TABLE(fn)                                                        \
+  {                                                                                       \
+    &Solver::fn<0>, &Solver::fn<1>, &Solver::fn<2>, &Solver::fn<3>, &Solver::fn<4>,       \
+        &Solver::fn<5>, &Solver::fn<6>, &Solver::fn<7>, &Solver::fn<8>, &Solver::fn<9>,   \
+        &Solver::fn<10>, &Solver::fn<11>, &Solver::fn<12>, &Solver::fn<13>,               \
+        &Solver::fn<14>, &Solver::fn<15>                                                  \
+  }
 
 class Solver {
  public:
@@ -101,7 +112,17 @@ class Solver {
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
   template <unsigned F> void integrate(Real dt, Real kick);
-  template <class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
+  template <bool Periodic, class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
+  // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
+  template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
+    if constexpr ((F & kPeriodic) != 0) {
+      return box_.delta(a, b);
+    } else {
+      return a - b;
+    }
+  }
+  // Positions moved into the box along its periodic axes.
+  void wrap_positions();
   void remove_outside_domain();
   void check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
                    const std::vector<Id>& ids) const;
@@ -115,6 +136,7 @@ class Solver {
   Kernels kern_;
   Wendland wendland_;  // wcsph's kernel, with its wall tables
   WallSet walls_;
+  PeriodicBox box_;
   unsigned features_ = 0;
   StepFn step_fn_ = nullptr;
   EvalFn eval_fn_ = nullptr;

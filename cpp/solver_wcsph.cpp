@@ -13,15 +13,8 @@
 namespace sphfluid {
 
 void Solver::select_wcsph_step() {
-  static const StepFn steps[8] = {
-      &Solver::wcsph_step_impl<0>, &Solver::wcsph_step_impl<1>, &Solver::wcsph_step_impl<2>,
-      &Solver::wcsph_step_impl<3>, &Solver::wcsph_step_impl<4>, &Solver::wcsph_step_impl<5>,
-      &Solver::wcsph_step_impl<6>, &Solver::wcsph_step_impl<7>};
-  static const EvalFn evals[8] = {
-      &Solver::wcsph_evaluate_impl<0>, &Solver::wcsph_evaluate_impl<1>,
-      &Solver::wcsph_evaluate_impl<2>, &Solver::wcsph_evaluate_impl<3>,
-      &Solver::wcsph_evaluate_impl<4>, &Solver::wcsph_evaluate_impl<5>,
-      &Solver::wcsph_evaluate_impl<6>, &Solver::wcsph_evaluate_impl<7>};
+  static const StepFn steps[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_step_impl);
+  static const EvalFn evals[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_evaluate_impl);
   step_fn_ = steps[features_];
   eval_fn_ = evals[features_];
 }
@@ -73,7 +66,7 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours(Wendland::OfR2{&W});  // summation density, self included
+  sort_and_find_neighbours<(F & kPeriodic) != 0>(Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
     // side; beyond a segment's free end the reflection alone acts.
@@ -129,7 +122,7 @@ void Solver::wcsph_evaluate_impl() {
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m * inv_i * lap_self;
     for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
       const Index j = nbr[q];
-      const Vec2 r = xi - x[j];
+      const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
       const Vec2 gw = W.gradient(r, rl);
       const Vec2 vij = vi - v[j];

@@ -13,14 +13,26 @@ def poly6(r2, h):
     return 4.0 / (np.pi * h**8) * d**3
 
 
+def separations(x, period=None):
+    """r_ij = x_i - x_j for every pair; along an axis with a period L (period =
+    (Lx or None, Ly or None)) the nearest image is taken."""
+    r = x[:, None, :] - x[None, :, :]
+    for axis, length in enumerate(period or (None, None)):
+        if length is not None:
+            r[..., axis] -= length * np.round(r[..., axis] / length)
+    return r
+
+
 def seed_forces(x, v, *, h, m, rho0, k, eta=0.0, sigma=0.0, threshold=None,
-                gravity=(0.0, -9.81), ghosts=None, ghost_mass=None, ghost_density=None):
+                gravity=(0.0, -9.81), ghosts=None, ghost_mass=None, ghost_density=None,
+                period=None):
     """Density, pressure and acceleration of every particle (SPEC.md table).
 
     ghosts: optional list (per particle) of (g, 2) arrays of wall ghost positions.
+    period: optional periodic box lengths (see separations).
     """
     n = len(x)
-    r = x[:, None, :] - x[None, :, :]          # r_ij = x_i - x_j
+    r = separations(x, period)                 # r_ij = x_i - x_j
     r2 = (r**2).sum(-1)
     rl = np.sqrt(r2)
     inside = r2 < h * h
@@ -84,12 +96,12 @@ def wendland(r, h):
     return 7.0 / (np.pi * h**2) * q**4 * (1.0 + 4.0 * (r / h)) * (r < h)
 
 
-def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81)):
+def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), period=None):
     """Density, pressure and acceleration under the wcsph method with no walls:
     summation density (Wendland C2, support h), Tait EOS clamped at rho0,
     symmetric pressure gradient, Monaghan's artificial viscosity and Morris'
     viscosity (README, "The wcsph method")."""
-    r = x[:, None, :] - x[None, :, :]
+    r = separations(x, period)
     r2 = (r**2).sum(-1)
     rho = (m * wendland(np.sqrt(r2), h)).sum(1)
     B = rho0 * c0**2 / 7.0

@@ -39,7 +39,7 @@ MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 
 _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "fluid_regions",
              "walls", "solver", "duration")
-_DOMAIN_KEYS = ("min", "max")
+_DOMAIN_KEYS = ("min", "max", "periodic")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
                "speed_of_sound", "artificial_viscosity")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
@@ -141,6 +141,7 @@ class Scene:
     speed_of_sound: float | None = None  # wcsph c0, m/s; None: 10 x the expected top speed
     artificial_viscosity: float = DEFAULT_ARTIFICIAL_VISCOSITY  # wcsph alpha
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
+    periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
 
     def lattice_points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -189,6 +190,8 @@ class Scene:
             out["fluid"]["speed_of_sound"] = self.speed_of_sound
         if self.artificial_viscosity != DEFAULT_ARTIFICIAL_VISCOSITY:
             out["fluid"]["artificial_viscosity"] = self.artificial_viscosity
+        if any(self.periodic):
+            out["domain"]["periodic"] = list(self.periodic)
         if self.particle_mass is not None:
             out["resolution"]["particle_mass"] = self.particle_mass
         if self.surface_threshold is not None:
@@ -316,6 +319,14 @@ class _Validator:
             return None
         return (float(value[0]), float(value[1]))
 
+    def flags(self, value: Any, path: str) -> tuple[bool, bool]:
+        if not (isinstance(value, list) and len(value) == 2
+                and all(isinstance(c, bool) for c in value)):
+            shown = json.dumps(value) if _jsonable(value) else repr(value)
+            self.fail(path, f"expected [x, y] of true/false, got {shown}")
+            return (False, False)
+        return (value[0], value[1])
+
     def required(self, obj: dict, key: str, prefix: str, why: str = "") -> Any:
         if key not in obj:
             self.fail(f"{prefix}{key}", "required key is missing" + (f" ({why})" if why else ""))
@@ -342,6 +353,7 @@ class _Validator:
         gravity = self.point(d["gravity"], "gravity") if "gravity" in d else DEFAULT_GRAVITY
 
         lo = hi = None
+        periodic = (False, False)
         dom = self.required(d, "domain", "")
         if dom is not None and (dom := self.obj(dom, "domain")) is not None:
             self.keys(dom, _DOMAIN_KEYS, "domain.")
@@ -351,6 +363,8 @@ class _Validator:
                 self.fail("domain", f"min must be below max in x and y, got min {list(lo)}, "
                           f"max {list(hi)}")
                 lo = hi = None
+            if "periodic" in dom:
+                periodic = self.flags(dom["periodic"], "domain.periodic")
 
         solver = d.get("solver", {})
         solver = self.obj(solver, "solver") or {}
@@ -449,6 +463,12 @@ class _Validator:
                 self.fail("domain", f"spans {cells:.3g} cells of the smoothing length "
                           f"{h:g} m, more than the {MAX_DOMAIN_CELLS:.0e} the cell grid allows; "
                           "shrink the domain to where the fluid can go")
+        if lo and hi and h:
+            for axis, name, extent in ((0, "x", "wide"), (1, "y", "high")):
+                if periodic[axis] and hi[axis] - lo[axis] < 2 * h:
+                    self.fail("domain.periodic", f"a periodic {name} axis needs a domain at "
+                              f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
+                              f"{hi[axis] - lo[axis]:g} m")
         if lo and hi:
             for i, r in enumerate(regions):
                 (x0, y0), (x1, y1) = r.bounds()
@@ -467,7 +487,8 @@ class _Validator:
                       particle_mass=mass, regions=tuple(regions), walls=tuple(walls),
                       method=method, duration=duration, wall_restitution=restitution,
                       surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
-                      speed_of_sound=c0, artificial_viscosity=alpha, source=self.source)
+                      speed_of_sound=c0, artificial_viscosity=alpha, periodic=periodic,
+                      source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)
             if len(pos) == 0:

@@ -69,6 +69,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.gravity = scene.gravity
     p.domain_min = scene.domain_min
     p.domain_max = scene.domain_max
+    p.periodic = scene.periodic
     p.restitution = scene.wall_restitution
     p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
     p.threads = 0 if threads is None else int(threads)

@@ -1,0 +1,47 @@
+// Periodic boundaries: the domain box wraps along the axes marked periodic.
+// Pair separations take the minimum image; positions are wrapped back into
+// [min, max) after each move. Used only by steps specialised on kPeriodic.
+#pragma once
+
+#include <cmath>
+
+#include "types.hpp"
+
+namespace sphfluid {
+
+struct PeriodicBox {
+  Vec2 lo{0, 0};
+  Vec2 length{1, 1};
+  bool x = false, y = false;
+
+  PeriodicBox() = default;
+  PeriodicBox(const Vec2& min, const Vec2& max, bool px, bool py)
+      : lo(min), length(max - min), x(px), y(py) {}
+
+  bool any() const { return x || y; }
+
+  // a - b, shortened by one box length along a periodic axis where that is
+  // nearer. Both points lie in the box, so one correction is enough.
+  Vec2 delta(const Vec2& a, const Vec2& b) const {
+    Vec2 d = a - b;
+    if (x) d.x() -= length.x() * image(d.x(), length.x());
+    if (y) d.y() -= length.y() * image(d.y(), length.y());
+    return d;
+  }
+
+  // p moved back into [lo, lo + length) along the periodic axes.
+  Vec2 wrap(Vec2 p) const {
+    if (x) p.x() -= length.x() * std::floor((p.x() - lo.x()) / length.x());
+    if (y) p.y() -= length.y() * std::floor((p.y() - lo.y()) / length.y());
+    return p;
+  }
+
+ private:
+  // +1, 0 or -1: which neighbouring image of b is nearest to a.
+  static Real image(Real d, Real len) {
+    const Real half = Real(0.5) * len;
+    return static_cast<Real>(d > half) - static_cast<Real>(d < -half);
+  }
+};
+
+}  // namespace sphfluid
