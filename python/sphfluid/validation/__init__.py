@@ -1,0 +1,1 @@
+"""Validation cases with known answers (``sphfluid validate``)."""
