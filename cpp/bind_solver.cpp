@@ -37,6 +37,8 @@ void bind_solver(py::module_& m) {
       .def_readwrite("method", &SimParams::method, "seed (SPEC.md) or wcsph")
       .def_readwrite("c0", &SimParams::c0, "wcsph: speed of sound, m/s")
       .def_readwrite("alpha", &SimParams::alpha, "wcsph: artificial viscosity coefficient")
+      .def_readwrite("background_pressure", &SimParams::background_pressure,
+                     "wcsph: pressure added to the Tait EOS (sum clamped at 0), Pa")
       .def_readwrite("spacing", &SimParams::spacing,
                      "wcsph: lattice spacing the walls mirror, m (0: a continuum)")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")

@@ -89,6 +89,9 @@ struct SimParams {
   // artificial viscosity with coefficient alpha.
   Real c0 = 0;       // speed of sound, m/s (> 0 for wcsph)
   Real alpha = 0.1;  // artificial viscosity
+  // Background pressure p_b added to the Tait pressure (the sum is clamped at 0):
+  // for flows with no free surface, where pressures below the reference are real.
+  Real background_pressure = 0;  // Pa
   Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
   static constexpr Real kTaitGamma = 7;
 

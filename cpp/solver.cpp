@@ -58,6 +58,8 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   require(P.method == Method::kSeed || (std::isfinite(P.c0) && P.c0 > 0),
           "wcsph needs a speed of sound c0 > 0");
   require(std::isfinite(P.alpha) && P.alpha >= 0, "artificial viscosity alpha must be >= 0");
+  require(std::isfinite(P.background_pressure) && P.background_pressure >= 0,
+          "background pressure must be >= 0");
   threads_ = resolve_threads(P.threads);
   box_ = PeriodicBox(P.domain_min, P.domain_max, P.periodic_x, P.periodic_y);
   require(!box_.x || box_.length.x() >= 2 * P.h,

@@ -75,6 +75,7 @@ void Solver::wcsph_evaluate_impl() {
   }
 
   const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
+  const Real pb = P.background_pressure;
   Real* rho = ps_.rho.data();
   Real* p = ps_.p.data();
   p_over_rho2_.resize(n);
@@ -91,11 +92,12 @@ void Solver::wcsph_evaluate_impl() {
         rho_i += rho0 * W.wall_half(ghosts_.items[q].norm());
       rho[i] = rho_i;
     }
-    // Tait, gamma = 7, with the density clamped at rho0 from below: a free
+    // Tait, gamma = 7, plus the background pressure, clamped at 0: a free
     // surface cannot pull (negative pressures there cause the tensile
-    // instability; SPlisHSPlasH's WCSPH clamps the same way).
-    const Real r = std::max(rho_i, rho0) / rho0, r2 = r * r, r3 = r2 * r;
-    p[i] = B * (r3 * r3 * r - 1);
+    // instability; SPlisHSPlasH's WCSPH clamps the same way). With p_b = 0 this
+    // is the density clamped at rho0 from below.
+    const Real r = rho_i / rho0, r2 = r * r, r3 = r2 * r;
+    p[i] = std::max(B * (r3 * r3 * r - 1) + pb, Real(0));
     inv_rho[i] = 1 / rho_i;
     por2[i] = p[i] * inv_rho[i] * inv_rho[i];
   }

@@ -96,7 +96,8 @@ def wendland(r, h):
     return 7.0 / (np.pi * h**2) * q**4 * (1.0 + 4.0 * (r / h)) * (r < h)
 
 
-def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), period=None):
+def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), period=None,
+                 background_pressure=0.0):
     """Density, pressure and acceleration under the wcsph method with no walls:
     summation density (Wendland C2, support h), Tait EOS clamped at rho0,
     symmetric pressure gradient, Monaghan's artificial viscosity and Morris'
@@ -105,7 +106,7 @@ def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), 
     r2 = (r**2).sum(-1)
     rho = (m * wendland(np.sqrt(r2), h)).sum(1)
     B = rho0 * c0**2 / 7.0
-    p = B * ((np.maximum(rho, rho0) / rho0) ** 7 - 1.0)
+    p = np.maximum(B * ((rho / rho0) ** 7 - 1.0) + background_pressure, 0.0)
     gw = wendland_grad(r, h)
     vij = v[:, None, :] - v[None, :, :]
     hs, eps2 = 0.5 * h, 0.01 * (0.5 * h) ** 2

@@ -41,19 +41,23 @@ def test_wendland_gradient_and_laplacian_match_finite_differences():
     assert np.abs(lap - ana).max() < 1e-4 * np.abs(ana).max()
 
 
-@pytest.mark.parametrize("alpha,eta", [(0.0, 0.0), (0.3, 0.0), (0.3, 0.5)])
-def test_native_wcsph_equals_brute_force(alpha, eta):
+@pytest.mark.parametrize("alpha,eta,p_b", [(0.0, 0.0, 0.0), (0.3, 0.0, 0.0), (0.3, 0.5, 0.0),
+                                           (0.3, 0.5, 2.0e4)])
+def test_native_wcsph_equals_brute_force(alpha, eta, p_b):
     rng = np.random.default_rng(8)
     n, h = 300, 0.1
     x = rng.uniform(0.0, 0.5, (n, 2))
     v = rng.normal(0.0, 1.0, (n, 2))
     p = _core.SimParams()
     p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, h, 0.6, 1000.0, 20.0
-    p.alpha, p.eta = alpha, eta
+    p.alpha, p.eta, p.background_pressure = alpha, eta, p_b
     p.domain_min, p.domain_max = (-1.0, -1.0), (2.0, 2.0)
     s = _core.Solver(p, x, v, np.zeros((0, 2, 2)))
-    rho, pr, a = wcsph_forces(x, v, h=h, m=0.6, rho0=1000.0, c0=20.0, alpha=alpha, eta=eta)
+    rho, pr, a = wcsph_forces(x, v, h=h, m=0.6, rho0=1000.0, c0=20.0, alpha=alpha, eta=eta,
+                              background_pressure=p_b)
     assert (pr > 0).sum() > 50 and (pr == 0).sum() > 10  # compressed and clamped both occur
+    if p_b > 0:  # and pressures between 0 and p_b (below the reference) too
+        assert ((pr > 0) & (pr < p_b)).sum() > 10
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
     np.testing.assert_allclose(s.pressures[o], pr, rtol=1e-10, atol=1e-9 * pr.max())

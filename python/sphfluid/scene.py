@@ -41,7 +41,7 @@ _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "flui
              "walls", "solver", "duration")
 _DOMAIN_KEYS = ("min", "max", "periodic")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
-               "speed_of_sound", "artificial_viscosity")
+               "speed_of_sound", "artificial_viscosity", "background_pressure")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
 _SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitution",
                 "surface_threshold")
@@ -140,6 +140,7 @@ class Scene:
     cfl: float = DEFAULT_CFL  # CFL factor of the adaptive step
     speed_of_sound: float | None = None  # wcsph c0, m/s; None: 10 x the expected top speed
     artificial_viscosity: float = DEFAULT_ARTIFICIAL_VISCOSITY  # wcsph alpha
+    background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
@@ -192,6 +193,8 @@ class Scene:
             out["fluid"]["artificial_viscosity"] = self.artificial_viscosity
         if any(self.periodic):
             out["domain"]["periodic"] = list(self.periodic)
+        if self.background_pressure:
+            out["fluid"]["background_pressure"] = self.background_pressure
         if self.particle_mass is not None:
             out["resolution"]["particle_mass"] = self.particle_mass
         if self.surface_threshold is not None:
@@ -408,6 +411,7 @@ class _Validator:
         rho0 = k = c0 = None
         eta, sigma = DEFAULT_VISCOSITY, DEFAULT_SURFACE_TENSION
         alpha = DEFAULT_ARTIFICIAL_VISCOSITY
+        p_b = 0.0
         fl = self.required(d, "fluid", "")
         if fl is not None and (fl := self.obj(fl, "fluid")) is not None:
             self.keys(fl, _FLUID_KEYS, "fluid.")
@@ -427,6 +431,9 @@ class _Validator:
                                     strict=False)
             if "speed_of_sound" in fl:
                 c0 = self.number(fl["speed_of_sound"], "fluid.speed_of_sound", low=0)
+            if "background_pressure" in fl:
+                p_b = self.number(fl["background_pressure"], "fluid.background_pressure",
+                                  low=0, strict=False)
             if "artificial_viscosity" in fl:
                 alpha = self.number(fl["artificial_viscosity"], "fluid.artificial_viscosity",
                                     low=0, strict=False)
@@ -488,6 +495,7 @@ class _Validator:
                       method=method, duration=duration, wall_restitution=restitution,
                       surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
                       speed_of_sound=c0, artificial_viscosity=alpha, periodic=periodic,
+                      background_pressure=p_b,
                       source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)

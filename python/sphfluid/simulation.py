@@ -55,6 +55,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
         p.method = _core.Method.wcsph
         p.c0 = speed_of_sound(scene)
         p.alpha = scene.artificial_viscosity
+        p.background_pressure = scene.background_pressure
         p.spacing = scene.spacing  # the walls mirror the particles' lattice
         p.mass = (scene.particle_mass if scene.particle_mass is not None
                   else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
