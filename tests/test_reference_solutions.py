@@ -239,3 +239,12 @@ def test_mean_height_error():
     assert ref.mean_height_error(t, eta, A) < 1e-12
     # Using the front's time scale by mistake gives a clearly wrong history.
     assert ref.mean_height_error(t * np.sqrt(2), eta, A) > 0.02
+
+
+def test_front_error_skips_points_beyond_the_tank():
+    data = ref.martin_moyce("front")
+    scale = ref.front_time_scale(1.0)
+    t = np.union1d(np.linspace(0.0, 3.5, 50), data.x) / scale  # the table's knots included
+    z = np.minimum(np.interp(t * scale, data.x, data.y, left=1.0), 4.0)  # a 4 a tank stops it
+    assert ref.mean_front_error(t, z, 1.0) > 0.005  # the last point (Z = 4.11) counts
+    assert ref.mean_front_error(t, z, 1.0, max_z=4.0) < 1e-12

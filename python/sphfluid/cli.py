@@ -1,4 +1,4 @@
-"""The `sphfluid` command: run | view | bench.
+"""The `sphfluid` command: run | view | record | bench | stress | validate.
 
 Every user mistake ends in one clear message on stderr and a non-zero exit
 code: 2 for bad input (scene, arguments, files), 3 for a numerical blow-up.
@@ -45,7 +45,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,bench,stress}")
+                           metavar="{run,view,record,bench,stress,validate}")
 
     r = sub.add_parser("run", help="simulate a scene headless",
                        description="Simulate a scene without a window and print a summary.")
@@ -107,6 +107,28 @@ def _parser() -> argparse.ArgumentParser:
     mode.add_argument("--full", action="store_true", help="the whole matrix (tens of minutes)")
     s.add_argument("--out", type=Path, default=Path("."), help="folder for the heat-map PNGs")
     s.add_argument("--write", type=Path, help="write the table into this Markdown file")
+
+    from .validation.cases import CASES, METHODS
+
+    v = sub.add_parser("validate", help="accuracy against known answers, with run times",
+                       description="Run the validation cases (hydrostatic tank, dam break vs "
+                                   "Martin & Moyce, Poiseuille, Taylor-Green, droplet) at "
+                                   "several resolutions for every method; print a table per "
+                                   "case with the error and the wall time, plot error against "
+                                   "run time. --quick checks each error against its bound "
+                                   "(exit 1 when one is over).")
+    vmode = v.add_mutually_exclusive_group()
+    vmode.add_argument("--quick", action="store_true",
+                       help="small resolutions, checked against bounds (default, seconds)")
+    vmode.add_argument("--full", action="store_true",
+                       help="the real measurement (finer resolutions, minutes)")
+    v.add_argument("--case", action="append", choices=list(CASES),
+                   help="run only this case (repeatable)")
+    v.add_argument("--method", choices=METHODS, help="run only this method")
+    v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    v.add_argument("--out", type=Path, default=Path("docs/validation"),
+                   help="folder for the plots (default docs/validation)")
+    v.add_argument("--write", type=Path, help="write the tables into this Markdown file")
     return p
 
 
@@ -130,6 +152,10 @@ def main(argv: list[str] | None = None) -> int:
             from .stress import main as stress_main
 
             return stress_main(args)
+        if args.command == "validate":
+            from .validation.runner import main as validate_main
+
+            return validate_main(args)
     except SceneError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

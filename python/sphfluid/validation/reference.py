@@ -439,7 +439,8 @@ def height_time_scale(a: float, g: float = 9.81) -> float:
 
 
 def mean_front_error(
-    t: ArrayLike, z: ArrayLike, a: float, *, shift: float = 0.0, g: float = 9.81
+    t: ArrayLike, z: ArrayLike, a: float, *, shift: float = 0.0, g: float = 9.81,
+    max_z: float = np.inf,
 ) -> float:
     """Mean |Z_sim - Z_MM| of a simulated surge front against Martin & Moyce Table 2.
 
@@ -461,6 +462,10 @@ def mean_front_error(
         Shift added to the simulated T (non-dimensional).
     g : float
         Gravitational acceleration [m/s^2].
+    max_z : float
+        Only table points with Z below this are used: a tank of length L stops the
+        front at Z = L/a, so points beyond it (Martin & Moyce's tank was longer)
+        cannot be compared.
 
     Returns
     -------
@@ -473,17 +478,19 @@ def mean_front_error(
         If the inputs are malformed or fewer than 3 table points are covered.
     """
     x_sim = np.asarray(t, dtype=float) * front_time_scale(a, g) + shift
-    return _mean_abs_error(x_sim, np.asarray(z, dtype=float) / a, martin_moyce("front"))
+    ref = martin_moyce("front")
+    return _mean_abs_error(x_sim, np.asarray(z, dtype=float) / a, ref, ref.y < max_z)
 
 
 def best_shift_front_error(
-    t: ArrayLike, z: ArrayLike, a: float, shifts: ArrayLike | None = None, *, g: float = 9.81
+    t: ArrayLike, z: ArrayLike, a: float, shifts: ArrayLike | None = None, *, g: float = 9.81,
+    max_z: float = np.inf,
 ) -> tuple[float, float]:
     """The shift (from ``shifts``) minimising :func:`mean_front_error`, and that error.
 
     Parameters
     ----------
-    t, z, a, g
+    t, z, a, g, max_z
         As for :func:`mean_front_error`.
     shifts : array_like, optional
         Candidate shifts of the simulated T; default ``np.linspace(0, 0.3, 31)``.
@@ -495,7 +502,7 @@ def best_shift_front_error(
     best_shift, error : float
     """
     candidates = np.linspace(0.0, 0.3, 31) if shifts is None else np.asarray(shifts, float)
-    errors = [mean_front_error(t, z, a, shift=float(s), g=g) for s in candidates]
+    errors = [mean_front_error(t, z, a, shift=float(s), g=g, max_z=max_z) for s in candidates]
     best = int(np.argmin(errors))
     return float(candidates[best]), errors[best]
 
@@ -535,13 +542,17 @@ def mean_height_error(
     return _mean_abs_error(x_sim, np.asarray(eta, dtype=float) / (2.0 * a), martin_moyce("height"))
 
 
-def _mean_abs_error(x_sim: FloatArray, y_sim: FloatArray, ref: ExperimentalSeries) -> float:
-    """Mean |y_sim(x) - y_ref| over the reference points inside ``[x_sim[0], x_sim[-1]]``."""
+def _mean_abs_error(x_sim: FloatArray, y_sim: FloatArray, ref: ExperimentalSeries,
+                    use: NDArray[np.bool_] | None = None) -> float:
+    """Mean |y_sim(x) - y_ref| over the reference points inside ``[x_sim[0], x_sim[-1]]``
+    (and in ``use``, when given)."""
     if x_sim.ndim != 1 or x_sim.shape != y_sim.shape or x_sim.size < 2:
         raise ValueError("times and values must be 1D arrays of the same length (>= 2)")
     if np.any(np.diff(x_sim) <= 0.0):
         raise ValueError("times must be strictly increasing")
     covered = (ref.x >= x_sim[0]) & (ref.x <= x_sim[-1])
+    if use is not None:
+        covered &= use
     if np.count_nonzero(covered) < 3:
         raise ValueError(
             f"the simulated history covers {np.count_nonzero(covered)} points of "

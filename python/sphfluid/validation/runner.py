@@ -1,0 +1,286 @@
+"""``sphfluid validate``: run the cases at several resolutions for every method,
+write the tables (VALIDATION.md) and plots, and in ``--quick`` mode check each
+error against the bound that documents today's accuracy."""
+from __future__ import annotations
+
+import datetime
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .cases import CASES, METHODS, Result
+
+# Quick-mode bounds on each run's primary error, per (case, method, n): today's
+# measured quick-mode errors (VALIDATION.md) plus 25 %, headroom for round-off
+# differences between machines (-march=native), so that a change that makes the
+# physics worse fails. A run missing here has no bound because today it does not
+# complete (the guard stops it): the report says so, and a run that starts to
+# complete is welcome, not a failure.
+QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
+    ("hydrostatic", "seed", 10): 1.2, ("hydrostatic", "seed", 20): 1.1,
+    ("hydrostatic", "wcsph", 10): 0.084, ("hydrostatic", "wcsph", 20): 0.075,
+    ("dam_break", "seed", 10): 0.25, ("dam_break", "seed", 20): 0.24,
+    ("dam_break", "wcsph", 10): 0.14, ("dam_break", "wcsph", 20): 0.27,
+    ("poiseuille", "seed", 10): 0.43, ("poiseuille", "seed", 20): 0.31,
+    ("poiseuille", "wcsph", 10): 0.054, ("poiseuille", "wcsph", 20): 0.034,
+    ("taylor_green", "seed", 20): 1.6, ("taylor_green", "seed", 40): 0.62,
+    ("taylor_green", "wcsph", 20): 1.15, ("taylor_green", "wcsph", 40): 1.3,
+    ("droplet", "seed", 10): 30.0, ("droplet", "seed", 20): 55.0,
+    ("droplet", "wcsph", 10): 18.0,
+    ("oscillation", "wcsph", 10): 0.51,
+}
+
+COLOURS = {"seed": "C0", "wcsph": "C1"}  # one colour per method in every plot
+
+
+def convergence_order(results: list[Result]) -> float:
+    """The observed order p of error ~ dx^p over the completed runs (NaN below two)."""
+    ok = [r for r in results if r.ok and r.error > 0]
+    if len(ok) < 2:
+        return math.nan
+    dx = np.log([r.spacing for r in ok])
+    err = np.log([r.error for r in ok])
+    return float(np.polyfit(dx, err, 1)[0])
+
+
+def run_suite(names: list[str], mode: str, methods: list[str], threads: int | None,
+              log) -> list[Result]:
+    results = []
+    for name in names:
+        case = CASES[name]
+        for method in methods:
+            for n in case.resolutions[mode]:
+                r = case.run(n, method, threads=threads)
+                results.append(r)
+                outcome = (f"error {r.error:.4g}" if r.ok else
+                           f"FAILED: {r.failure or 'no error could be measured'}")
+                log(f"{name:13s} {method:6s} n={n:<4d} {r.particles:7,d} particles "
+                    f"{r.steps:7,d} steps {r.wall:7.2f} s  {outcome}")
+    return results
+
+
+def check_bounds(results: list[Result]) -> list[str]:
+    """Messages for the quick runs whose error is over (or could not meet) its bound."""
+    problems = []
+    for r in results:
+        bound = QUICK_BOUNDS.get((r.case, r.method, r.n))
+        if bound is None:
+            continue
+        if not r.ok:
+            problems.append(f"{r.case} {r.method} n={r.n}: did not complete "
+                            f"({r.failure[:200] or 'no error measured'}), bound {bound:g}")
+        elif not r.error <= bound:
+            problems.append(f"{r.case} {r.method} n={r.n}: error {r.error:.4g} is over the "
+                            f"bound {bound:g}")
+    return problems
+
+
+def _fmt(x: float) -> str:
+    return "—" if not math.isfinite(x) else f"{x:.3g}"
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")  # a pipe inside a Markdown table cell
+
+
+def case_table(results: list[Result], *, bounds: bool = False) -> str:
+    """A Markdown table of the runs; with bounds, the quick-mode bound of each."""
+    metric_names = []
+    for r in results:
+        metric_names += [k for k in r.metrics if k not in metric_names]
+    head = ("| method | n | spacing, m | particles | steps | wall s | particle-steps/s | error | "
+            + ("bound | " if bounds else "") + "".join(f"{_cell(k)} | " for k in metric_names))
+    rows = [head, "|---|---:|---:|---:|---:|---:|---:|---:|" + "---:|" * (
+        len(metric_names) + bounds)]
+    for r in results:
+        error = _fmt(r.error) if r.ok else "unstable" if r.failure else "not measured"
+        bound = QUICK_BOUNDS.get((r.case, r.method, r.n))
+        rows.append(
+            f"| {r.method} | {r.n} | {r.spacing:.3g} | {r.particles:,} | {r.steps:,} | "
+            f"{r.wall:.2f} | {_fmt(r.particle_steps_per_s)} | {error} | "
+            + ((f"{bound:g} | " if bound is not None else "none | ") if bounds else "")
+            + "".join(f"{_fmt(r.metrics[k]) if k in r.metrics else ''} | "
+                      for k in metric_names))
+    return "\n".join(rows)
+
+
+def plot_case(name: str, results: list[Result], path: Path) -> bool:
+    """Error against wall time (log-log, a line per method) beside the case's
+    profile against its reference; False when matplotlib is missing."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    case = CASES[name]
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for method in METHODS:
+        ok = [r for r in results if r.method == method and r.ok and r.error > 0]
+        if not ok:
+            continue
+        left.loglog([r.wall for r in ok], [r.error for r in ok], "o-", label=method,
+                    color=COLOURS[method])
+        for r in ok:
+            left.annotate(f"n={r.n}", (r.wall, r.error), textcoords="offset points",
+                          xytext=(4, 4), fontsize=8, color=COLOURS[method])
+    left.set_xlabel("wall time, s (stepping)")
+    left.set_ylabel(case.error_name)
+    left.set_title(f"{case.title}: error against run time", fontsize=10)
+    left.grid(True, which="both", alpha=0.3)
+    if left.lines:
+        left.legend()
+    _profile(name, results, right)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def _finest(results: list[Result], method: str) -> Result | None:
+    ok = [r for r in results if r.method == method and r.ok and r.curves]
+    return max(ok, key=lambda r: r.n) if ok else None
+
+
+def _profile(name: str, results: list[Result], ax) -> None:
+    from . import reference as ref
+
+    best = {m: r for m in METHODS if (r := _finest(results, m)) is not None}
+    if name == "dam_break":
+        mm = ref.martin_moyce("front")
+        ax.plot(mm.x, mm.y, "ks", label="Martin & Moyce, Table 2")
+        for m, r in best.items():
+            ax.plot(r.curves["T"], r.curves["Z"], color=COLOURS[m],
+                    label=f"{m}, n={r.n} (no shift)")
+        ax.set_xlabel("T = t sqrt(2g/a)")
+        ax.set_ylabel("Z = front / a")
+        ax.set_ylim(0.9, 4.3)
+    elif name == "hydrostatic":
+        y = np.linspace(0.0, 1.0, 50)
+        ax.plot(ref.hydrostatic_pressure(y, depth=1.0, rho0=1000.0) / 9810, y, "k-",
+                label="rho0 g (H - y)")
+        for m, r in best.items():
+            ax.plot(r.curves["p"] / 9810, r.curves["y"], ".", ms=3, color=COLOURS[m],
+                    label=f"{m}, n={r.n} (last-second mean)")
+        ax.set_xlabel("p / (rho0 g H)")
+        ax.set_ylabel("y, m")
+    elif name == "poiseuille":
+        y = np.linspace(0.0, 1e-3, 100)
+        for i, (m, r) in enumerate(best.items()):
+            for k, (t, yy, vx) in enumerate(r.curves["profiles"]):
+                if i == 0:
+                    exact = ref.poiseuille_velocity(y, t, gap=1e-3, nu=1e-6, force=2e-4)
+                    ax.plot(exact / r.curves["v0"], y * 1e3, "k-", lw=0.8,
+                            label="series solution" if k == 0 else None)
+                ax.plot(vx / r.curves["v0"], yy * 1e3, "ox"[i % 2], ms=3, color=COLOURS[m],
+                        label=f"{m}, n={r.n}" if k == 0 else None)
+        ax.set_xlabel("v_x / v_max (t = 0.0225, 0.045, 0.1125, 0.225, 1 s)")
+        ax.set_ylabel("y, mm")
+    elif name == "taylor_green":
+        t = np.linspace(0.0, 1.0, 50)
+        ax.semilogy(t, ref.taylor_green_decay(t, nu=0.01), "k-", label="exp(-8 pi^2 nu t)")
+        for m, r in best.items():
+            ax.semilogy(r.curves["t"], r.curves["vmax"], "o-", ms=3, color=COLOURS[m],
+                        label=f"{m}, n={r.n}")
+        ax.set_xlabel("t, s")
+        ax.set_ylabel("|v|max / U")
+    elif name == "droplet":
+        for m, r in best.items():
+            ax.plot(r.curves["t"], r.curves["p_in"], "o-", ms=3, color=COLOURS[m],
+                    label=f"{m}, n={r.n}")
+        if best:
+            ax.axhline(next(iter(best.values())).curves["laplace"], color="k",
+                       label="sigma / R")
+        ax.set_yscale("symlog", linthresh=10)
+        ax.set_xlabel("t, s")
+        ax.set_ylabel("pressure inside, Pa")
+    elif name == "oscillation":
+        for m, r in best.items():
+            ax.plot(r.curves["t"], r.curves["q"] * 1e4, color=COLOURS[m], label=f"{m}, n={r.n}")
+        if best:
+            period = next(iter(best.values())).curves["period"]
+            for k in range(1, 3):
+                ax.axvline(k * period, color="k", lw=0.8,
+                           label="analytic period" if k == 1 else None)
+        ax.set_xlabel("t, s")
+        ax.set_ylabel("<x^2 - y^2>, cm^2")
+    ax.set_title("simulated against the reference (finest completed run)", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    if ax.lines or ax.collections:
+        ax.legend(fontsize=8)
+
+
+def machine() -> str:
+    from ..bench import machine as bench_machine
+
+    return bench_machine()
+
+
+def report(results: list[Result], names: list[str], mode: str, command: str, seconds: float,
+           plot_dir: Path, relative_to: Path) -> str:
+    header = (f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
+              f"Command: `{command}` ({seconds:.0f} s in all). Wall times are the stepping "
+              "alone, on the default thread count; particle-steps/s = particles x steps / "
+              "wall s.")
+    parts = [header, ""]
+    for name in names:
+        case = CASES[name]
+        mine = [r for r in results if r.case == name]
+        parts += [f"### {case.title}", "", " ".join((case.__doc__ or "").split()), "",
+                  f"Error: {case.error_name}.", "",
+                  case_table(mine, bounds=mode == "quick"), ""]
+        orders = []
+        for method in METHODS:
+            p = convergence_order([r for r in mine if r.method == method])
+            if math.isfinite(p):
+                orders.append(f"{method} {p:.2f}")
+        if orders:
+            parts += ["Observed order (error ~ spacing^p over the completed runs): "
+                      + ", ".join(orders) + ".", ""]
+        for r in mine:
+            if r.failure:
+                parts += [f"- {r.method}, n = {r.n}: stopped by the guard: `{r.failure}`"]
+        if any(r.failure for r in mine):
+            parts.append("")
+        png = plot_dir / f"validation_{name}.png"
+        if plot_case(name, mine, png):
+            parts += [f"![{name}]({os.path.relpath(png, relative_to)})", ""]
+    return "\n".join(parts)
+
+
+def main(args) -> int:
+    mode = "full" if args.full else "quick"
+    names = args.case or list(CASES)
+    methods = [args.method] if args.method else list(METHODS)
+
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    start = time.perf_counter()
+    results = run_suite(names, mode, methods, args.threads, log)
+    seconds = time.perf_counter() - start
+    command = " ".join(["sphfluid validate", f"--{mode}"]
+                       + [f"--case {n}" for n in (args.case or [])]
+                       + ([f"--method {args.method}"] if args.method else []))
+    relative_to = args.write.parent if args.write else Path(".")
+    text = report(results, names, mode, command, seconds, args.out, relative_to)
+    print(text)
+    if args.write:
+        from ..bench import write_section
+
+        write_section(args.write, text, tag=f"validate {mode}")
+        log(f"wrote {args.write}")
+    if mode == "quick":
+        problems = check_bounds(results)
+        for p in problems:
+            log(f"over the bound: {p}")
+        if problems:
+            return 1
+        log(f"every error is within its quick-mode bound ({len(QUICK_BOUNDS)} bounds)")
+    return 0
