@@ -495,6 +495,24 @@ void Solver::integrate(Real dt, Real kick) {
   ps_.v.commit_write();
 }
 
+// solver_wcsph.cpp's kick-drift-kick calls integrate<F> too: emit every one.
+template void Solver::integrate<0>(Real, Real);
+template void Solver::integrate<1>(Real, Real);
+template void Solver::integrate<2>(Real, Real);
+template void Solver::integrate<3>(Real, Real);
+template void Solver::integrate<4>(Real, Real);
+template void Solver::integrate<5>(Real, Real);
+template void Solver::integrate<6>(Real, Real);
+template void Solver::integrate<7>(Real, Real);
+template void Solver::integrate<8>(Real, Real);
+template void Solver::integrate<9>(Real, Real);
+template void Solver::integrate<10>(Real, Real);
+template void Solver::integrate<11>(Real, Real);
+template void Solver::integrate<12>(Real, Real);
+template void Solver::integrate<13>(Real, Real);
+template void Solver::integrate<14>(Real, Real);
+template void Solver::integrate<15>(Real, Real);
+
 // Names the step, the time, the first particle that failed and the check.
 void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho_new,
                   Real kinetic) const {
