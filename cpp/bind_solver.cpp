@@ -174,6 +174,14 @@ void bind_solver(py::module_& m) {
       .def_property_readonly("features", &Solver::features,
                              "bit set of active optional terms: 1 viscosity, 2 surface "
                              "tension, 4 walls")
+      .def_property_readonly(
+          "memory_bytes",
+          [](const Solver& s) {
+            py::dict d;
+            for (const auto& [name, bytes] : s.memory_bytes()) d[py::str(name)] = bytes;
+            return d;
+          },
+          "heap bytes held by the solver's arrays, by part (capacity included)")
       .def_property_readonly("neighbour_pairs", &Solver::neighbour_pairs,
                              "stored neighbour pairs (i, j != i) of the last evaluation")
       .def_property_readonly(

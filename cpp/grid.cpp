@@ -44,9 +44,11 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   ny_ = static_cast<Index>(cy);
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
 
-  unsorted_cell_.resize(n);
+  // cell_of_ first holds each particle's cell in input order, then (below) in
+  // sorted order: one array of n instead of two.
+  cell_of_.resize(n);
   cell_start_.assign(n_cells + 1, 0);
-  Index* cell = unsorted_cell_.data();
+  Index* cell = cell_of_.data();
   const Index nx = nx_, ny = ny_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index i = 0; i < n; ++i) {
@@ -59,15 +61,12 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   for (std::size_t c = 0; c < n_cells; ++c) cell_start_[c + 1] += cell_start_[c];
 
   order.resize(n);
-  cell_of_.resize(n);
   // Stable scatter: particles keep their relative order within a cell.
   cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
-  for (Index i = 0; i < n; ++i) {
-    const Index c = unsorted_cell_[i];
-    const Index k = cursor_[c]++;
-    order[k] = i;
-    cell_of_[k] = c;
-  }
+  for (Index i = 0; i < n; ++i) order[cursor_[cell[i]]++] = i;
+  // Sorted, the cells are the runs of cell_start_.
+  for (std::size_t c = 0; c < n_cells; ++c)
+    std::fill(cell + cell_start_[c], cell + cell_start_[c + 1], static_cast<Index>(c));
 }
 
 }  // namespace sphfluid

@@ -29,7 +29,7 @@ class CellGrid {
   void neighbours(const Vec2* x, Index n, Real h, int threads, Csr<Index>& out,
                   Visit visit) const {
     const Real h2 = h * h;
-    build_csr<Index>(n, threads, out, [&](Index i, Chunk<Index>& list) {
+    out.build(n, threads, [&](Index i, Chunk<Index>& list) {
       const Index c = cell_of_[i];
       const Index cy = c / nx_, cx = c - cy * nx_;
       const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx_ - 1);
@@ -62,7 +62,7 @@ class CellGrid {
   void neighbours_periodic(const Vec2* x, Index n, Real h, int threads, const PeriodicBox& box,
                            Csr<Index>& out, Visit visit) const {
     const Real h2 = h * h;
-    build_csr<Index>(n, threads, out, [&](Index i, Chunk<Index>& list) {
+    out.build(n, threads, [&](Index i, Chunk<Index>& list) {
       const Index c = cell_of_[i];
       const Index cy = c / nx_, cx = c - cy * nx_;
       Span cols[2], rows[2];
@@ -84,6 +84,9 @@ class CellGrid {
     });
   }
 
+  std::size_t bytes() const {
+    return (cell_start_.capacity() + cell_of_.capacity() + cursor_.capacity()) * sizeof(Index);
+  }
   Index nx() const { return nx_; }
   Index ny() const { return ny_; }
   std::size_t n_cells() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
@@ -130,7 +133,6 @@ class CellGrid {
   Index nx_ = 0, ny_ = 0;
   std::vector<Index> cell_start_;  // n_cells + 1 (last entry is the guard)
   std::vector<Index> cell_of_;     // cell of each particle, in sorted order
-  std::vector<Index> unsorted_cell_;  // cell of each particle before sorting
   std::vector<Index> cursor_;         // scatter position per cell
 };
 

@@ -1,10 +1,11 @@
-// OpenMP helpers that also compile without OpenMP, and the chunked CSR builder:
-// each thread fills a contiguous block of particles into its own buffer, then
-// the blocks are concatenated, so the result does not depend on thread count.
+// OpenMP helpers that also compile without OpenMP, and the chunked CSR: each
+// thread fills a contiguous block of particles into its own buffer, so the rows
+// do not depend on the thread count.
 #pragma once
 
 #include <algorithm>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "types.hpp"
@@ -40,9 +41,7 @@ inline int thread_team_size() {
 #endif
 }
 
-using Offset = std::int64_t;
-
-// A growable array that never zero-fills: the per-thread output of build_csr.
+// A growable array that never zero-fills: the per-thread output of Csr::build.
 template <class T>
 class Chunk {
  public:
@@ -53,62 +52,96 @@ class Chunk {
   void push_back(const T& v) { *extend(1) = v; }
   // k writable slots at the end; keep only what is then committed with resize().
   T* extend(std::size_t k) {
-    if (size_ + k > data_.size()) data_.resize(std::max(2 * data_.size(), size_ + k + 64));
+    // Grows by an eighth: the chunks are the largest arrays, and a step's size
+    // is close to the last one's, so doubling would mostly hold empty slots.
+    if (size_ + k > data_.size()) {
+      const std::size_t grown = std::max(data_.size() + data_.size() / 8, size_ + k + 64);
+      data_.reserve(grown);  // exactly: resize() alone would double the capacity
+      data_.resize(grown);
+    }
     T* out = data_.data() + size_;
     size_ += k;
     return out;
   }
   void resize(std::size_t n) { size_ = n; }  // n <= size()
+  std::size_t bytes() const { return data_.capacity() * sizeof(T); }
 
  private:
   std::vector<T> data_;  // capacity; only [0, size_) holds entries
   std::size_t size_ = 0;
 };
 
-// Compressed rows: the entries of particle i are items[start[i] .. start[i+1]).
+// The entries of one row of a Csr.
 template <class T>
-struct Csr {
-  std::vector<Offset> start;
-  std::vector<T> items;
-  std::vector<Chunk<T>> per_thread;  // scratch kept between steps
-
-  Offset begin(Index i) const { return start[i]; }
-  Offset end(Index i) const { return start[i + 1]; }
+struct Row {
+  const T* first;
+  const T* last;
+  const T* begin() const { return first; }
+  const T* end() const { return last; }
 };
 
-// emit(i, out) appends particle i's entries to out (a Chunk<T>).
-template <class T, class Emit>
-void build_csr(Index n, int threads, Csr<T>& csr, Emit emit) {
-  const int nt_max = resolve_threads(threads);
-  csr.start.resize(static_cast<std::size_t>(n) + 1);
-  if (static_cast<int>(csr.per_thread.size()) < nt_max) csr.per_thread.resize(nt_max);
-  std::vector<Offset> base(nt_max + 1, 0);
-#pragma omp parallel num_threads(nt_max)
-  {
-    const int t = thread_rank(), nt = thread_team_size();
-    const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
-    const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
-    // Work on a buffer whose header lives on this thread's stack: the headers
-    // in per_thread share cache lines, and appending writes them constantly.
-    Chunk<T> local = std::move(csr.per_thread[t]);
-    local.clear();
-    for (Index i = lo; i < hi; ++i) {
-      csr.start[i] = static_cast<Offset>(local.size());
-      emit(i, local);
-    }
-    base[t + 1] = static_cast<Offset>(local.size());
-#pragma omp barrier
-#pragma omp single
-    {
-      for (int s = 0; s < nt_max; ++s) base[s + 1] += base[s];
-      csr.items.resize(base[nt_max]);
-    }
-    const Offset off = base[t];
-    for (Index i = lo; i < hi; ++i) csr.start[i] += off;
-    std::copy(local.begin(), local.end(), csr.items.begin() + off);
-    csr.per_thread[t] = std::move(local);  // keep the capacity for the next step
+// Compressed rows, built in blocks: thread t fills the rows of particles
+// [lo[t], lo[t + 1]) into its own chunk, and the chunks are kept as they are
+// (no concatenated copy: that would double the memory of the largest array).
+template <class T>
+class Csr {
+ public:
+  Row<T> row(Index i) const {
+    int t = 0;
+    while (i >= lo_[t + 1]) ++t;  // a handful of blocks: one per thread
+    const T* base = chunks_[t].begin();
+    const Index last = i + 1 == lo_[t + 1] ? static_cast<Index>(chunks_[t].size()) : start_[i + 1];
+    return {base + start_[i], base + last};
   }
-  csr.start[n] = static_cast<Offset>(csr.items.size());
-}
+  // Heap bytes held, capacity included.
+  std::size_t bytes() const {
+    std::size_t sum = (start_.capacity() + lo_.capacity()) * sizeof(Index);
+    for (const Chunk<T>& c : chunks_) sum += c.bytes();
+    return sum;
+  }
+  // Entries in all rows.
+  std::int64_t total() const {
+    std::int64_t sum = 0;
+    for (const Chunk<T>& c : chunks_) sum += static_cast<std::int64_t>(c.size());
+    return sum;
+  }
+
+  // emit(i, out) appends particle i's entries to out (a Chunk<T>).
+  template <class Emit>
+  void build(Index n, int threads, Emit emit) {
+    const int nt_max = resolve_threads(threads);
+    start_.resize(static_cast<std::size_t>(n) + 1);
+    if (static_cast<int>(chunks_.size()) < nt_max) chunks_.resize(nt_max);
+    lo_.assign(nt_max + 1, n);
+    lo_[0] = 0;
+    bool overflow = false;
+#pragma omp parallel num_threads(nt_max) reduction(|| : overflow)
+    {
+      const int t = thread_rank(), nt = thread_team_size();
+      const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
+      const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
+      lo_[t] = lo;
+      // Work on a buffer whose header lives on this thread's stack: the headers
+      // in chunks_ share cache lines, and appending writes them constantly.
+      Chunk<T> local = std::move(chunks_[t]);
+      local.clear();
+      for (Index i = lo; i < hi; ++i) {
+        start_[i] = static_cast<Index>(local.size());
+        emit(i, local);
+      }
+      overflow = local.size() > static_cast<std::size_t>(INT32_MAX);
+      chunks_[t] = std::move(local);  // keeps its capacity for the next build
+    }
+    // A smaller team than asked for leaves blocks that hold no rows.
+    for (int t = 0; t < nt_max; ++t)
+      if (lo_[t] == lo_[t + 1]) chunks_[t].clear();
+    if (overflow) throw std::length_error("over 2^31 neighbour entries in one thread's block");
+  }
+
+ private:
+  std::vector<Index> start_;  // offset of row i in its block's chunk
+  std::vector<Index> lo_;     // first row of each block, and n
+  std::vector<Chunk<T>> chunks_;
+};
 
 }  // namespace sphfluid

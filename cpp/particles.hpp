@@ -24,6 +24,10 @@ class Field {
   T& operator[](std::size_t i) { return (*buf_)[i]; }
   const T& operator[](std::size_t i) const { return (*buf_)[i]; }
   std::size_t size() const { return buf_->size(); }
+  // Heap bytes held by this field (its buffer and its scratch), capacity included.
+  std::size_t bytes() const {
+    return (buf_->capacity() + (tmp_ ? tmp_->capacity() : 0)) * sizeof(T);
+  }
 
   // The buffer as Python sees it: a view holds this pointer, keeping it alive.
   std::shared_ptr<Buffer> share() const { return buf_; }
@@ -85,6 +89,9 @@ struct ParticleSet {
   Field<Id> id;     // stable identity; storage order changes every step
 
   Index size() const { return static_cast<Index>(x.size()); }
+  std::size_t bytes() const {
+    return x.bytes() + v.bytes() + a.bytes() + rho.bytes() + p.bytes() + id.bytes();
+  }
 
   void resize(Index n) {
     x.resize(n);

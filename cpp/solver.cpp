@@ -114,7 +114,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
 // Wall ghosts of every particle, found once per step and reused by every pass.
 void Solver::find_ghosts(bool interior_only) {
   const Vec2* x = ps_.x.data();
-  build_csr<Vec2>(size(), threads_, ghosts_, [&](Index i, Chunk<Vec2>& out) {
+  ghosts_.build(size(), threads_, [&](Index i, Chunk<Vec2>& out) {
     walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
@@ -364,9 +364,7 @@ void Solver::compute_density() {
   Real* rho = ps_.rho.data();
   Real* p = ps_.p.data();
   inv_rho_.resize(n);
-  p_over_rho_.resize(n);
   Real* inv_rho = inv_rho_.data();
-  Real* p_over_rho = p_over_rho_.data();
   const Real k = params_.k, rho0 = params_.rho0;
   [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
 #pragma omp parallel for schedule(static) num_threads(threads_)
@@ -374,14 +372,12 @@ void Solver::compute_density() {
     Real r = rho[i];
     if constexpr ((F & kWalls) != 0) {
       Real g = 0;
-      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q)
-        g += kern_.w_poly6(ghosts_.items[q].squaredNorm());
+      for (const Vec2& r : ghosts_.row(i)) g += kern_.w_poly6(r.squaredNorm());
       r += m_ghost * g;
       rho[i] = r;
     }
     p[i] = k * (r - rho0);
     inv_rho[i] = 1 / r;
-    p_over_rho[i] = p[i] * inv_rho[i];
   }
 }
 
@@ -397,7 +393,6 @@ void Solver::compute_accelerations() {
   const Real* rho = ps_.rho.data();
   const Real* p = ps_.p.data();
   const Real* inv_rho = inv_rho_.data();
-  const Real* p_over_rho = p_over_rho_.data();
   Vec2* a = ps_.a.data();
   [[maybe_unused]] const Real m = params_.mass, eta = params_.eta, sigma = params_.sigma;
   [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * m;
@@ -405,7 +400,6 @@ void Solver::compute_accelerations() {
   [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
   const Vec2 g = params_.gravity;
-  const Index* nbr = nbrs_.items.data();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
@@ -415,14 +409,13 @@ void Solver::compute_accelerations() {
     [[maybe_unused]] Vec2 normal = Vec2::Zero();  // n_i = grad c_i   (eq. 18)
     [[maybe_unused]] Real lap_c = 0;              // lap c_i
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m / rhoi * lap_self;
-    for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
-      const Index j = nbr[q];
+    for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm();
       const Real rl = std::sqrt(r2);
       const Real inv_rho_j = inv_rho[j];
-      // m (p_i + p_j) / (2 rho_j), with p_j / rho_j stored by the density pass
-      f -= (Real(0.5) * m * (pi * inv_rho_j + p_over_rho[j])) * kern_.grad_spiky(r, rl);
+      // m (p_i + p_j) / (2 rho_j), with 1 / rho_j stored by the density pass
+      f -= (Real(0.5) * m * (pi + p[j]) * inv_rho_j) * kern_.grad_spiky(r, rl);
       if constexpr ((F & kViscosity) != 0)
         f += (eta * m * inv_rho_j * kern_.lap_visc(rl)) * (v[j] - vi);
       if constexpr ((F & kSurfaceTension) != 0) {
@@ -435,8 +428,7 @@ void Solver::compute_accelerations() {
       // The pair (p_i + p_ghost) / 2 with both at the positive part of p_i:
       // the wall pushes back as hard as the fluid presses, and never pulls.
       const Real p_wall = std::max(pi, Real(0));
-      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q) {
-        const Vec2& r = ghosts_.items[q];
+      for (const Vec2& r : ghosts_.row(i)) {
         const Real rl = r.norm();
         f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
         if constexpr ((F & kViscosity) != 0)

@@ -89,9 +89,18 @@ class Solver {
   void set_threads(int threads);
   const std::array<double, kNumPhases>& phase_seconds() const { return phase_seconds_; }
   void reset_phase_seconds() { phase_seconds_.fill(0.0); }
+  // Heap bytes held by the solver's arrays (capacity included), by part.
+  std::vector<std::pair<std::string, std::size_t>> memory_bytes() const {
+    return {{"particles", ps_.bytes()},
+            {"sort", grid_.bytes() + order_.capacity() * sizeof(Index)},
+            {"neighbours", nbrs_.bytes()},
+            {"wall ghosts", ghosts_.bytes()},
+            {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity()) * sizeof(Real) +
+                            keep_.capacity() + bad_.capacity()}};
+  }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
   std::int64_t neighbour_pairs() const {
-    return nbrs_.start.empty() ? 0 : nbrs_.start.back();
+    return nbrs_.total();
   }
 
  private:
@@ -149,7 +158,6 @@ class Solver {
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
   std::vector<Real> p_over_rho2_; // wcsph: p / rho^2
-  std::vector<Real> p_over_rho_;  // p / rho, likewise: saves divisions per pair
   std::vector<char> keep_;    // scratch for domain removal
   std::vector<char> bad_;     // per thread: a non-finite value was produced
 

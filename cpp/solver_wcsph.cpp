@@ -88,8 +88,7 @@ void Solver::wcsph_evaluate_impl() {
     if constexpr ((F & kWalls) != 0) {
       // Each ghost stands for the wall's half-plane filled with fluid at rho0:
       // its share of the density is rho0 times the kernel's integral over it.
-      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q)
-        rho_i += rho0 * W.wall_half(ghosts_.items[q].norm());
+      for (const Vec2& r : ghosts_.row(i)) rho_i += rho0 * W.wall_half(r.norm());
       rho[i] = rho_i;
     }
     // Tait, gamma = 7, plus the background pressure, clamped at 0: a free
@@ -106,7 +105,6 @@ void Solver::wcsph_evaluate_impl() {
   const Vec2* x = ps_.x.data();
   const Vec2* v = ps_.v.data();
   Vec2* a = ps_.a.data();
-  const Index* nbr = nbrs_.items.data();
   const Real m = P.mass, hs = Real(0.5) * P.h;  // hs: the smoothing length (support 2 hs)
   const Real eps2 = Real(0.01) * hs * hs;
   const Real av = P.alpha * P.c0 * hs;  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
@@ -122,8 +120,7 @@ void Solver::wcsph_evaluate_impl() {
     [[maybe_unused]] Vec2 normal = Vec2::Zero();
     [[maybe_unused]] Real lap_c = 0;
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m * inv_i * lap_self;
-    for (Offset q = nbrs_.begin(i); q < nbrs_.end(i); ++q) {
-      const Index j = nbr[q];
+    for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
       const Vec2 gw = W.gradient(r, rl);
@@ -147,8 +144,7 @@ void Solver::wcsph_evaluate_impl() {
       // half-plane is 2 p_i rho0 / rho_i^2 times the kernel's integral along
       // the wall line, pointing away from the wall.
       const Real pw2 = std::max(pi2, Real(0));
-      for (Offset q = ghosts_.begin(i); q < ghosts_.end(i); ++q) {
-        const Vec2& r = ghosts_.items[q];
+      for (const Vec2& r : ghosts_.row(i)) {
         const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
         const Vec2 gw = W.gradient(r, rl);
         if (rl > 0) f += (2 * pw2 * rho0 * W.wall_line(rl) / rl) * r;

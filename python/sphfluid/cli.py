@@ -98,6 +98,16 @@ def _parser() -> argparse.ArgumentParser:
                    help="instead: time drawing one viewer frame in each colour mode")
     b.add_argument("--guard-cost", action="store_true",
                    help="instead: time the step with and without the blow-up guard")
+    b.add_argument("--suite", action="store_true",
+                   help="instead: the dam break at ~1k to ~1M particles and the bare loop, "
+                        "1 and 2 threads, every method (or --method), peak memory, time to "
+                        "solution, and a log-log plot (tens of minutes)")
+    b.add_argument("--sizes", help="--suite: comma-separated particle counts "
+                                   "(default 1000,10000,100000,1000000)")
+    b.add_argument("--tts-sizes", help="--suite: particle counts of the time-to-solution "
+                                       "runs (default 1000,3000,10000)")
+    b.add_argument("--out", type=Path, default=Path("docs"),
+                   help="--suite: folder for the plot (default docs)")
     s = sub.add_parser("stress", help="stability matrix and violent scenes",
                        description="Sweep k x dt for the seed method on the dam break and the "
                                    "splash (fixed and adaptive dt), then violent scenes; report "
@@ -145,6 +155,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "record":
             return _record(args)
         if args.command == "bench":
+            if args.suite:
+                from .bench_suite import main as suite_main
+
+                args.method_given = "--method" in (argv if argv is not None else sys.argv)
+                return suite_main(args)
             from .bench import main as bench_main
 
             return bench_main(args)

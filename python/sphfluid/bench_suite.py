@@ -1,0 +1,268 @@
+"""`sphfluid bench --suite`: the dam break from ~1k to ~1M particles and the bare
+loop (no walls, no viscosity, no tension), each on 1 and 2 threads, for every
+method; time to solution of 1.0 s of the dam break against its front error; the
+peers (PySPH, SPlisHSPlasH) when installed. Writes the tables and a log-log plot
+of time per step against N.
+
+Every timed configuration runs in a fresh child process, so its peak memory is
+its own. Bytes per particle: the solver's arrays (``Solver.memory_bytes``,
+capacity included) / particles, and the process's peak resident memory above
+what it held after its imports / particles (set-up temporaries included).
+"""
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .bench import dam_break_scene, machine
+
+METHODS = ("seed", "wcsph")
+SIZES = (1_000, 10_000, 100_000, 1_000_000)
+PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
+                "ghosts": "wall ghosts", "density": "wall density + EOS",
+                "forces": "forces", "integrate": "integrate + walls + guard",
+                "domain": "domain"}
+
+
+def bare_scene(n_target: int, method: str) -> dict:
+    """The dam-break column with no walls, no viscosity and no tension, falling
+    freely in a large domain: the cost of the bare SPH loop."""
+    scene = dam_break_scene(n_target, method)
+    scene["name"] = f"Bare loop, {n_target:,} particles"
+    scene["walls"] = []
+    scene["fluid"]["viscosity"] = 0.0
+    scene["domain"] = {"min": [-1.0, -5.0], "max": [2.0, 2.5]}
+    return scene
+
+
+def steps_for(n: int) -> tuple[int, int]:
+    """(warm-up, timed) steps: about 2e7 particle-steps timed, 20 to 2,000 steps."""
+    timed = int(min(2000, max(20, 2e7 / n)))
+    return max(5, timed // 10), timed
+
+
+def measure_one(kind: str, method: str, n_target: int, threads: int) -> dict:
+    """Time one configuration in this process (called in a child process)."""
+    from .simulation import Simulation
+    from .validation.cases import surge_front
+    from .validation.reference import front_time_scale, martin_moyce
+
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB, after imports
+    scene = bare_scene(n_target, method) if kind == "bare" else dam_break_scene(n_target, method)
+    sim = Simulation(scene, threads=threads)
+    warmup, steps = steps_for(sim.n_particles)
+    sim.step(warmup)
+    sim._solver.reset_phase_seconds()
+    start = time.perf_counter()
+    sim.step(steps)
+    wall = time.perf_counter() - start
+    n = sim.n_particles
+    out = {"kind": kind, "method": method, "threads": threads, "particles": n,
+           "steps": steps, "wall": wall, "steps_per_s": steps / wall,
+           "pps": steps * n / wall, "ns_per_ps": 1e9 * wall / (steps * n),
+           "phases_us": {k: 1e6 * v / steps for k, v in sim._solver.phase_seconds().items()},
+           "pairs_per_particle": sim._solver.neighbour_pairs / max(n, 1),
+           "peak_bytes_per_particle": 1024 * (resource.getrusage(
+               resource.RUSAGE_SELF).ru_maxrss - base) / n,
+           "bytes_per_particle": sum(sim._solver.memory_bytes.values()) / n}
+    if kind == "dam":
+        # The front against Martin & Moyce at the time reached (their Z(0) = 1).
+        mm = martin_moyce("front")
+        T = sim.time * front_time_scale(1.0)
+        z_ref = float(np.interp(T, np.r_[0.0, mm.x], np.r_[1.0, mm.y]))
+        out.update(T=T, Z=surge_front(sim.positions, sim.scene.spacing), Z_ref=z_ref)
+    return out
+
+
+def run_child(kind: str, method: str, n_target: int, threads: int, timeout: float) -> dict:
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS="1")
+    code = ("import json, sys; from sphfluid.bench_suite import measure_one; "
+            f"print(json.dumps(measure_one({kind!r}, {method!r}, {n_target}, {threads})))")
+    try:
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return {"error": f"over the {timeout:.0f} s time limit"}
+    if p.returncode != 0:
+        return {"error": (p.stderr.strip().splitlines() or ["crashed"])[-1]}
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def time_to_solution(method: str, n_target: int, threads: int, end: float = 1.0) -> dict:
+    """Wall time for `end` s of the dam break with adaptive steps, and its front
+    error against Martin & Moyce (no shift; Z < 4)."""
+    from .simulation import Simulation
+    from .validation.cases import surge_front
+    from .validation.reference import best_shift_front_error, mean_front_error
+
+    scene = dam_break_scene(n_target, method)
+    scene["solver"]["time_step"] = "auto"
+    sim = Simulation(scene, threads=threads)
+    times, fronts, wall = [0.0], [1.0], 0.0
+    for t in np.linspace(0.01, end, round(end / 0.01)):
+        begin = time.perf_counter()
+        sim.advance_to(float(t))
+        wall += time.perf_counter() - begin
+        times.append(sim.time)
+        fronts.append(surge_front(sim.positions, sim.scene.spacing))
+    return {"method": method, "particles": sim.n_particles, "steps": sim.step_count,
+            "wall": wall, "error": mean_front_error(times, fronts, 1.0, max_z=4.0),
+            "shifted": best_shift_front_error(times, fronts, 1.0, max_z=4.0)}
+
+
+def scaling_plot(rows: list[dict], path: Path) -> bool:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for method, colour in zip(METHODS, ("C0", "C1")):
+        for kind, style in (("dam", "o-"), ("bare", "s--")):
+            for threads, alpha in ((1, 0.45), (2, 1.0)):
+                sel = sorted((r for r in rows if r["method"] == method and r["kind"] == kind
+                              and r["threads"] == threads and "wall" in r),
+                             key=lambda r: r["particles"])
+                if sel:
+                    ax.loglog([r["particles"] for r in sel],
+                              [1e3 / r["steps_per_s"] for r in sel], style, color=colour,
+                              alpha=alpha, label=f"{method}, {'dam break' if kind == 'dam' else 'bare loop'}, "
+                                                 f"{threads} thread{'s' if threads > 1 else ''}")
+    n = np.array([1e3, 1e6])
+    ax.loglog(n, 1e-4 * n, "k:", lw=0.8, label="100 ns per particle (slope 1)")
+    ax.set_xlabel("particles")
+    ax.set_ylabel("wall time per step, ms")
+    ax.set_title("Time per step against N", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def throughput_table(rows: list[dict]) -> str:
+    lines = [("| method | scene | particles | threads | steps | steps/s | particle-steps/s | "
+             "ns/particle-step | parallel efficiency | neighbours/particle | bytes/particle "
+             "(process peak) | front Z (M&M) at T |"),
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    one = {(r["method"], r["kind"], r["particles"]): r for r in rows
+           if r.get("threads") == 1 and "wall" in r}
+    for r in rows:
+        if "wall" not in r:
+            lines.append(f"| {r['method']} | {r['kind']} | ~{r['target']:,} | {r['threads']} | "
+                         f"| failed: {r['error']} | | | | | | |")
+            continue
+        ref = one.get((r["method"], r["kind"], r["particles"]))
+        eff = (f"{r['steps_per_s'] / (r['threads'] * ref['steps_per_s']):.0%}"
+               if ref and r["threads"] > 1 else "")
+        front = (f"{r['Z']:.3f} ({r['Z_ref']:.3f}) at {r['T']:.3f}" if "Z" in r else "")
+        lines.append(
+            f"| {r['method']} | {'dam break' if r['kind'] == 'dam' else 'bare loop'} | "
+            f"{r['particles']:,} | {r['threads']} | {r['steps']:,} | {r['steps_per_s']:,.1f} | "
+            f"{r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | {eff} | "
+            f"{r['pairs_per_particle']:.1f} | {r['bytes_per_particle']:.0f} "
+            f"({r['peak_bytes_per_particle']:.0f}) | {front} |")
+    return "\n".join(lines)
+
+
+def phase_table(rows: list[dict]) -> str:
+    names = list(PHASE_LABELS)
+    lines = ["| method | scene | particles | threads | " + " | ".join(
+        PHASE_LABELS[k] for k in names) + " |", "|---|---|---:|---:|" + "---:|" * len(names)]
+    for r in rows:
+        if "wall" not in r:
+            continue
+        per = {k: r["phases_us"].get(k, 0.0) / r["particles"] * 1e3 for k in names}
+        lines.append(f"| {r['method']} | {r['kind']} | {r['particles']:,} | {r['threads']} | "
+                     + " | ".join(f"{per[k]:.1f}" for k in names) + " |")
+    return "\n".join(lines)
+
+
+def main(args) -> int:
+    from . import _core
+
+    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(SIZES)
+    methods = [args.method] if args.method_given else list(METHODS)
+
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    start = time.perf_counter()
+    rows = []
+    for method in methods:
+        for kind in ("dam", "bare"):
+            for n in sizes if kind == "dam" else [s for s in sizes if s <= 100_000]:
+                for threads in (1, 2):
+                    r = run_child(kind, method, n, threads, timeout=1800)
+                    r.setdefault("method", method)
+                    r.setdefault("kind", kind)
+                    r.setdefault("threads", threads)
+                    r["target"] = n
+                    rows.append(r)
+                    log(f"{method:5s} {kind:4s} ~{n:>9,} {threads} thr: " + (
+                        f"{r['steps_per_s']:9.1f} steps/s {r['ns_per_ps']:7.1f} ns/particle-step "
+                        f"{r['bytes_per_particle']:5.0f} B/particle" if "wall" in r
+                        else f"failed: {r['error']}"))
+    tts = []
+    for method in methods:
+        for n in (args.tts_sizes or "1000,3000,10000").split(","):
+            r = time_to_solution(method, int(n), 2)
+            tts.append(r)
+            log(f"time to solution {method} {r['particles']:,}: {r['wall']:.2f} s, "
+                f"{r['steps']:,} steps, front error {r['error']:.3f}")
+
+    info = _core.build_info
+    png = args.out / "bench_scaling.png"
+    drew = scaling_plot(rows, png)
+    rel = os.path.relpath(png, args.write.parent if args.write else Path("."))
+    tts_lines = [("| method | particles | steps | wall s (2 threads) | front error, no shift | "
+                 "best shift: error (shift) |"), "|---|---:|---:|---:|---:|---|"]
+    for r in tts:
+        s, e = r["shifted"]
+        tts_lines.append(f"| {r['method']} | {r['particles']:,} | {r['steps']:,} | "
+                         f"{r['wall']:.2f} | {r['error']:.3f} | {e:.3f} ({s:.2f}) |")
+    text = "\n".join([
+        f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, -march=native "
+        f"{'on' if info['march_native'] else 'off'}, OpenMP {info['openmp']}, {info['real']}. "
+        f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
+        + (f" --sizes {args.sizes}" if args.sizes else "") + "` "
+        f"({time.perf_counter() - start:.0f} s in all).",
+        "",
+        ("Fixed dt (the seed: 2e-4 s x dx/0.02 m; wcsph: 0.3 (h/2)/c0), warm-up then about "
+        "2e7 particle-steps timed (20 to 2,000 steps), each configuration in a fresh "
+        "process. Bytes per particle: the solver's arrays (capacity included), and in "
+        "brackets the process's peak resident memory above its state after the imports "
+        "(set-up temporaries and memory the allocator keeps included), per particle."),
+        "",
+        throughput_table(rows),
+        "",
+        "Time per phase, nanoseconds per particle per step:",
+        "",
+        phase_table(rows),
+        "",
+        ("Time to solution: 1.0 s of the dam break, adaptive dt (cfl 0.4), 2 threads; the "
+        "front error is the mean |dZ| against Martin & Moyce's Table 2 over T < 3.2 "
+        "(the front reaches the far wall), the peers' 0.25-0.31 being the mark to meet."),
+        "",
+        *tts_lines,
+        "",
+        *([f"![time per step against N]({rel})", ""] if drew else []),
+    ])
+    print(text)
+    if args.write:
+        from .bench import write_section
+
+        write_section(args.write, text, tag="bench suite")
+        log(f"wrote {args.write}")
+    return 0
