@@ -11,14 +11,22 @@ namespace sphfluid {
 
 void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
                     std::vector<Index>& order, const PeriodicBox& box) {
-  Vec2 lo(0, 0), hi(0, 0);
+  const int nt = n >= kParallelMin ? threads : 1;
+  Real lx = 0, ly = 0, hx = 0, hy = 0;
   if (n > 0) {
-    lo = hi = x[0];
-    for (Index i = 1; i < n; ++i) {
-      lo = lo.cwiseMin(x[i]);
-      hi = hi.cwiseMax(x[i]);
-    }
+    lx = hx = x[0].x();
+    ly = hy = x[0].y();
   }
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : lx, ly) \
+    reduction(max : hx, hy)
+  for (Index i = 0; i < n; ++i) {
+    lx = std::min(lx, x[i].x());
+    ly = std::min(ly, x[i].y());
+    hx = std::max(hx, x[i].x());
+    hy = std::max(hy, x[i].y());
+  }
+  Vec2 lo(lx, ly);
+  const Vec2 hi(hx, hy);
   const Real inv_cell = 1 / cell_size;
   double cx = std::floor((hi.x() - lo.x()) * inv_cell) + 1;
   double cy = std::floor((hi.y() - lo.y()) * inv_cell) + 1;
@@ -48,25 +56,58 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   // sorted order: one array of n instead of two.
   cell_of_.resize(n);
   cell_start_.assign(n_cells + 1, 0);
-  Index* cell = cell_of_.data();
-  const Index nx = nx_, ny = ny_;
-#pragma omp parallel for schedule(static) num_threads(threads)
-  for (Index i = 0; i < n; ++i) {
-    // Clamped both ways: a wrapped position may round to the box's far edge.
-    const Index ix = std::clamp<Index>(static_cast<Index>((x[i].x() - lo.x()) * inv.x()), 0, nx - 1);
-    const Index iy = std::clamp<Index>(static_cast<Index>((x[i].y() - lo.y()) * inv.y()), 0, ny - 1);
-    cell[i] = iy * nx + ix;
-  }
-  for (Index i = 0; i < n; ++i) ++cell_start_[cell[i] + 1];
-  for (std::size_t c = 0; c < n_cells; ++c) cell_start_[c + 1] += cell_start_[c];
-
   order.resize(n);
-  // Stable scatter: particles keep their relative order within a cell.
-  cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
-  for (Index i = 0; i < n; ++i) order[cursor_[cell[i]]++] = i;
+  Index* cell = cell_of_.data();
+  Index* start = cell_start_.data();
+  const Index nx = nx_, ny = ny_;
+  auto cell_index = [&](const Vec2& p) {
+    // Clamped both ways: a wrapped position may round to the box's far edge.
+    const Index ix = std::clamp<Index>(static_cast<Index>((p.x() - lo.x()) * inv.x()), 0, nx - 1);
+    const Index iy = std::clamp<Index>(static_cast<Index>((p.y() - lo.y()) * inv.y()), 0, ny - 1);
+    return iy * nx + ix;
+  };
+  if (nt == 1) {
+    for (Index i = 0; i < n; ++i) {
+      cell[i] = cell_index(x[i]);
+      ++start[cell[i] + 1];
+    }
+    for (std::size_t c = 0; c < n_cells; ++c) start[c + 1] += start[c];
+    // Stable scatter: particles keep their relative order within a cell.
+    cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
+    for (Index i = 0; i < n; ++i) order[cursor_[cell[i]]++] = i;
+  } else {
+    // Each thread counts its block of particles into its own histogram; a
+    // thread's particles of a cell go after those of the threads before it,
+    // so the scatter is stable as in the serial sort.
+    cursor_.assign(static_cast<std::size_t>(nt) * n_cells, 0);
+#pragma omp parallel num_threads(nt)
+    {
+      const int t = thread_rank(), team = thread_team_size();
+      const Index b0 = static_cast<Index>(std::int64_t(n) * t / team);
+      const Index b1 = static_cast<Index>(std::int64_t(n) * (t + 1) / team);
+      Index* mine = cursor_.data() + static_cast<std::size_t>(t) * n_cells;
+      for (Index i = b0; i < b1; ++i) ++mine[cell[i] = cell_index(x[i])];
+#pragma omp barrier
+#pragma omp for schedule(static)
+      for (std::size_t c = 0; c < n_cells; ++c) {
+        Index sum = 0;
+        for (int s = 0; s < team; ++s) {
+          Index& k = cursor_[static_cast<std::size_t>(s) * n_cells + c];
+          const Index count = k;
+          k = sum;
+          sum += count;
+        }
+        start[c + 1] = sum;
+      }
+#pragma omp single
+      for (std::size_t c = 0; c < n_cells; ++c) start[c + 1] += start[c];
+      for (Index i = b0; i < b1; ++i) order[start[cell[i]] + mine[cell[i]]++] = i;
+    }
+  }
   // Sorted, the cells are the runs of cell_start_.
+#pragma omp parallel for schedule(static) num_threads(nt)
   for (std::size_t c = 0; c < n_cells; ++c)
-    std::fill(cell + cell_start_[c], cell + cell_start_[c + 1], static_cast<Index>(c));
+    std::fill(cell + start[c], cell + start[c + 1], static_cast<Index>(c));
 }
 
 }  // namespace sphfluid

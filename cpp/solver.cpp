@@ -329,10 +329,8 @@ void Solver::evaluate_impl() {
 template <bool Periodic, class KernelOfR2>
 void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   const Index n = size();
-  // The sort runs on one thread: measured, its loops are too short at 10k
-  // particles to pay for waking a second one (2 threads took 3x longer).
-  grid_.sort(ps_.x.data(), n, params_.h, 1, order_, box_);
-  ps_.permute_state(order_, 1);
+  grid_.sort(ps_.x.data(), n, params_.h, threads_, order_, box_);
+  ps_.permute_state(order_, n >= CellGrid::kParallelMin ? threads_ : 1);
   mark(kSort);
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
@@ -547,10 +545,12 @@ void Solver::remove_outside_domain() {
   const Vec2* x = ps_.x.data();
   const Vec2 lo = params_.domain_min, hi = params_.domain_max;
   auto inside = [&](const Vec2& p) { return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all(); };
-  Index first_out = -1;
-  for (Index i = 0; i < n && first_out < 0; ++i)
-    if (!inside(x[i])) first_out = i;
-  if (first_out < 0) return;
+  Index first_out = n;
+#pragma omp parallel for schedule(static) num_threads(n >= CellGrid::kParallelMin ? threads_ : 1) \
+    reduction(min : first_out)
+  for (Index i = 0; i < n; ++i)
+    if (!inside(x[i])) first_out = std::min(first_out, i);
+  if (first_out == n) return;
   keep_.assign(n, 1);
   Index removed = 0;
   for (Index i = first_out; i < n; ++i)
