@@ -85,7 +85,8 @@ def test_run_refuses_a_scene_larger_than_memory(tmp_path, capsys):
     assert "more than memory allows" in capsys.readouterr().err
 
 
-def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys):
+def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the last good state is saved in the current folder
     d = json.loads(json.dumps(BASE_SCENE))
     d["fluid"]["gas_constant"] = 1e306  # pressures overflow to inf
     d["fluid"]["viscosity"] = 0.0
@@ -95,6 +96,7 @@ def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys):
     scene.write_text(json.dumps(d))
     assert main(["run", str(scene), "--quiet"]) == 3
     assert "non-finite" in capsys.readouterr().err
+    assert (tmp_path / "boom.last_good_state.npz").exists()
 
 
 def test_bad_arguments_exit_2(capsys):

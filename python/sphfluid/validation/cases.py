@@ -77,7 +77,7 @@ class Case:
     title = ""
     error_name = ""  # what Result.error measures
     length = 1.0  # m: n cells across this length give the spacing
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40)}
 
     def spacing(self, n: int) -> float:
         return self.length / n
@@ -136,7 +136,7 @@ class Hydrostatic(Case):
     error_name = "RMS pressure error / (rho0 g H)"
     depth = 1.0
     duration = 5.0
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40, 80)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40, 80)}
 
     def scene(self, n, method):
         dx, H = self.spacing(n), self.depth
@@ -236,7 +236,7 @@ class DamBreak(Case):
     a = 1.0
     tank = 4.0
     duration = 0.72  # T = t sqrt(2g/a) = 3.19: the front is at the far wall
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40, 80)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40, 80)}
 
     def scene(self, n, method):
         a, L = self.a, self.tank
@@ -291,7 +291,7 @@ class Poiseuille(Case):
     nu, force, rho0 = 1e-6, 2e-4, 1000.0
     c0 = 5e-3  # m/s: 200 x v_max, Mach 0.005 (Morris et al. use the same order)
     times = (0.0225, 0.045, 0.1125, 0.225, 1.0)
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40)}
 
     def scene(self, n, method):
         L, dx = self.length, self.spacing(n)
@@ -351,7 +351,7 @@ class TaylorGreen(Case):
     length, speed, nu, rho0 = 1.0, 1.0, 0.01, 1000.0
     c0 = 10.0
     duration = 1.0
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (20, 40), "full": (25, 50, 100)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (20, 30, 40), "full": (25, 50, 100)}
 
     def scene(self, n, method):
         L = self.length
@@ -415,7 +415,7 @@ class Droplet(Case):
     sigma, rho0, nu = 10.0, 1000.0, 0.02
     c0 = 10.0
     duration = 3.0
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40)}
 
     def scene(self, n, method):
         s = self.length
@@ -467,7 +467,7 @@ class Oscillation(Case):
     sigma, rho0, nu = 10.0, 1000.0, 1e-4
     c0 = 10.0
     amplitude = 0.1  # of the radius' deformation
-    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40)}
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40)}
 
     @property
     def omega(self) -> float:

@@ -15,23 +15,42 @@ import numpy as np
 from .cases import CASES, METHODS, Result
 
 # Quick-mode bounds on each run's primary error, per (case, method, n): today's
-# measured quick-mode errors (VALIDATION.md) plus 25 %, headroom for round-off
-# differences between machines (-march=native), so that a change that makes the
-# physics worse fails. A run missing here has no bound because today it does not
+# measured quick-mode error (in the comment) times 1.4, rounded up. The headroom
+# covers round-off differences between machines and builds (-march=native), to
+# which the sloshing seed runs are sensitive; a change that makes the physics
+# clearly worse fails. A run missing here has no bound because today it does not
 # complete (the guard stops it): the report says so, and a run that starts to
 # complete is welcome, not a failure.
 QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
-    ("hydrostatic", "seed", 10): 1.2, ("hydrostatic", "seed", 20): 1.1,
-    ("hydrostatic", "wcsph", 10): 0.084, ("hydrostatic", "wcsph", 20): 0.075,
-    ("dam_break", "seed", 10): 0.25, ("dam_break", "seed", 20): 0.24,
-    ("dam_break", "wcsph", 10): 0.14, ("dam_break", "wcsph", 20): 0.27,
-    ("poiseuille", "seed", 10): 0.43, ("poiseuille", "seed", 20): 0.31,
-    ("poiseuille", "wcsph", 10): 0.054, ("poiseuille", "wcsph", 20): 0.034,
-    ("taylor_green", "seed", 20): 1.6, ("taylor_green", "seed", 40): 0.62,
-    ("taylor_green", "wcsph", 20): 1.15, ("taylor_green", "wcsph", 40): 1.3,
-    ("droplet", "seed", 10): 30.0, ("droplet", "seed", 20): 55.0,
-    ("droplet", "wcsph", 10): 18.0,
-    ("oscillation", "wcsph", 10): 0.51,
+    ("hydrostatic", "seed", 10): 1.2,  # 0.8371
+    ("hydrostatic", "seed", 15): 1.3,  # 0.9188
+    ("hydrostatic", "seed", 20): 1.3,  # 0.8678
+    ("hydrostatic", "wcsph", 10): 0.094,  # 0.06645
+    ("hydrostatic", "wcsph", 15): 0.091,  # 0.06473
+    ("hydrostatic", "wcsph", 20): 0.083,  # 0.05923
+    ("dam_break", "seed", 10): 0.28,  # 0.1953
+    ("dam_break", "seed", 15): 0.24,  # 0.168
+    ("dam_break", "seed", 20): 0.27,  # 0.1879
+    ("dam_break", "wcsph", 10): 0.16,  # 0.1104
+    ("dam_break", "wcsph", 15): 0.27,  # 0.1884
+    ("dam_break", "wcsph", 20): 0.3,  # 0.2133
+    ("poiseuille", "seed", 10): 0.48,  # 0.3389
+    ("poiseuille", "seed", 15): 0.39,  # 0.2753
+    ("poiseuille", "seed", 20): 0.35,  # 0.2466
+    ("poiseuille", "wcsph", 10): 0.061,  # 0.04289
+    ("poiseuille", "wcsph", 15): 0.045,  # 0.03168
+    ("poiseuille", "wcsph", 20): 0.038,  # 0.02708
+    ("taylor_green", "seed", 20): 1.8,  # 1.245
+    ("taylor_green", "seed", 30): 1.5,  # 1.057
+    ("taylor_green", "seed", 40): 0.69,  # 0.4902
+    ("taylor_green", "wcsph", 20): 1.3,  # 0.9125
+    ("taylor_green", "wcsph", 30): 1.4,  # 0.9304
+    ("taylor_green", "wcsph", 40): 1.5,  # 1.013
+    ("droplet", "seed", 10): 34,  # 23.94
+    ("droplet", "seed", 15): 44,  # 30.77
+    ("droplet", "seed", 20): 61,  # 43.11
+    ("droplet", "wcsph", 10): 20,  # 14.08
+    ("oscillation", "wcsph", 10): 0.57,  # 0.4017
 }
 
 COLOURS = {"seed": "C0", "wcsph": "C1"}  # one colour per method in every plot
