@@ -65,6 +65,13 @@ def _scene(name: str, *, method: str, dx: float, box, fluid: dict, regions: list
     }
 
 
+def _fluid(method: str, *, rho0: float, c0: float, **extra) -> dict:
+    """The fluid block with the sound speed c0 for either method: the seed's is
+    sqrt(k), so k = c0^2; wcsph takes c0 itself."""
+    sound = {"gas_constant": c0**2} if method == "seed" else {"speed_of_sound": c0}
+    return {"rest_density": rho0, **sound, **extra}
+
+
 def _rect(x0, y0, x1, y1) -> dict:
     return {"shape": "rectangle", "min": [x0, y0], "max": [x1, y1]}
 
@@ -296,11 +303,8 @@ class Poiseuille(Case):
     def scene(self, n, method):
         L, dx = self.length, self.spacing(n)
         width = 10 * dx  # the periodic x extent
-        fluid = {"rest_density": self.rho0, "viscosity": self.nu * self.rho0}
-        if method == "seed":
-            fluid["gas_constant"] = self.c0**2  # the seed's sound speed is sqrt(k)
-        else:
-            fluid["speed_of_sound"] = self.c0
+        fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
+        if method == "wcsph":
             fluid["artificial_viscosity"] = 0.0  # laminar: the physical viscosity alone
         reach = 4 * dx  # plates run past the seam so no particle sees their ends
         return _scene("validation: Poiseuille flow", method=method, dx=dx,
@@ -355,11 +359,8 @@ class TaylorGreen(Case):
 
     def scene(self, n, method):
         L = self.length
-        fluid = {"rest_density": self.rho0, "viscosity": self.nu * self.rho0}
-        if method == "seed":
-            fluid["gas_constant"] = self.c0**2
-        else:
-            fluid["speed_of_sound"] = self.c0
+        fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
+        if method == "wcsph":
             fluid["artificial_viscosity"] = 0.0
             # No free surface: the vortices' low pressures are real. rho0 U^2 is
             # twice the largest drop below the mean.
@@ -419,12 +420,8 @@ class Droplet(Case):
 
     def scene(self, n, method):
         s = self.length
-        fluid = {"rest_density": self.rho0, "viscosity": self.nu * self.rho0,
-                 "surface_tension": self.sigma}
-        if method == "seed":
-            fluid["gas_constant"] = self.c0**2
-        else:
-            fluid["speed_of_sound"] = self.c0
+        fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0,
+                       surface_tension=self.sigma)
         return _scene("validation: droplet", method=method, dx=self.spacing(n),
                       box=((-0.5, -0.5), (0.5, 0.5)), fluid=fluid,
                       regions=[_rect(-s / 2, -s / 2, s / 2, s / 2)], walls=[],
@@ -478,12 +475,8 @@ class Oscillation(Case):
         return 2.5 * 2 * math.pi / self.omega
 
     def scene(self, n, method):
-        fluid = {"rest_density": self.rho0, "viscosity": self.nu * self.rho0,
-                 "surface_tension": self.sigma}
-        if method == "seed":
-            fluid["gas_constant"] = self.c0**2
-        else:
-            fluid["speed_of_sound"] = self.c0
+        fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0,
+                       surface_tension=self.sigma)
         return _scene("validation: oscillating droplet", method=method, dx=self.spacing(n),
                       box=((-0.5, -0.5), (0.5, 0.5)), fluid=fluid,
                       regions=[{"shape": "circle", "center": [0.0, 0.0],
