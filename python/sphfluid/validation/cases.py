@@ -118,6 +118,10 @@ class Case:
                 begin = time.perf_counter()
                 sim.advance_to(float(t))
                 result.wall += time.perf_counter() - begin
+                if sim.removed_particles:  # every case keeps its fluid in the domain
+                    result.failure = (f"{sim.removed_particles} of {result.particles} particles "
+                                      f"left the domain by t = {sim.time:.4g} s")
+                    break
                 samples.append(self.sample(sim))
                 if progress:
                     progress(k + 1, len(times), sim)
