@@ -49,8 +49,6 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("droplet", "seed", 10): 34,  # 23.94
     ("droplet", "seed", 15): 44,  # 30.77
     ("droplet", "seed", 20): 61,  # 43.11
-    ("droplet", "wcsph", 10): 20,  # 14.08
-    ("oscillation", "wcsph", 10): 0.57,  # 0.4017
 }
 
 COLOURS = {"seed": "C0", "wcsph": "C1"}  # one colour per method in every plot
