@@ -12,6 +12,7 @@ what it held after its imports / particles (set-up temporaries included).
 from __future__ import annotations
 
 import json
+import math
 import os
 import resource
 import subprocess
@@ -115,6 +116,40 @@ def time_to_solution(method: str, n_target: int, threads: int, end: float = 1.0)
     return {"method": method, "particles": sim.n_particles, "steps": sim.step_count,
             "wall": wall, "error": mean_front_error(times, fronts, 1.0, max_z=4.0),
             "shifted": best_shift_front_error(times, fronts, 1.0, max_z=4.0)}
+
+
+def run_peers(n_target: int, end: float, ours: list[dict], log) -> list[str]:
+    """The established codes on the same dam break (same spacing, end time and 2
+    threads), when installed (docs/peers.md); a Markdown table beside ours."""
+    from . import peers
+
+    spacing = math.sqrt(2.0 / n_target)  # as dam_break_scene
+    mine = [r for r in ours if abs(r["particles"] - n_target) < 0.2 * n_target]
+    lines = [("| code | method | particles | steps | wall s | particle-steps/s | front error, "
+             "no shift | our fastest to a front error no worse: wall s (ratio) | note |"),
+             "|---|---|---:|---:|---:|---:|---:|---|---|"]
+    for name, reason in peers.available().items():
+        if reason:
+            lines.append(f"| {name} | | | | | | | | skipped: {reason} |")
+            log(f"peer {name}: skipped ({reason})")
+            continue
+        r = peers.run_peer(name, spacing=spacing, end_time=end, threads=2)
+        log(f"peer {name}: {r.particles:,} particles, {r.steps:,} steps, {r.wall_s:.1f} s, "
+            f"front error {r.front_error:.3f}{', crashed: ' + r.crashed if r.crashed else ''}")
+        # Our quickest run (any method, any size) whose front is at least as good.
+        good = [m for m in ours if math.isfinite(r.front_error) and m["error"] <= r.front_error]
+        best = min(good, key=lambda m: m["wall"]) if good else None
+        versus = (f"{best['wall']:.2f} ({best['method']}, {best['particles']:,} particles; "
+                  f"{r.wall_s / best['wall']:.0f}x faster)" if best else "none")
+        lines.append(
+            f"| {r.name} {r.version} | {r.method} | {r.particles:,} | {r.steps:,} | "
+            f"{r.wall_s:.1f} | {r.particle_steps_per_s / 1e6:.2f} M | {r.front_error:.3f} | "
+            f"{versus} | {('crashed: ' + r.crashed + '; ') if r.crashed else ''}{r.note} |")
+    if mine:
+        lines += ["", "Ours at the same particle count: " + "; ".join(
+            f"{m['method']} {m['wall']:.2f} s, {m['particles'] * m['steps'] / m['wall'] / 1e6:.2f} "
+            f"M particle-steps/s, front error {m['error']:.3f}" for m in mine) + "."]
+    return lines
 
 
 def scaling_plot(rows: list[dict], path: Path) -> bool:
@@ -222,6 +257,9 @@ def main(args) -> int:
             log(f"time to solution {method} {r['particles']:,}: {r['wall']:.2f} s, "
                 f"{r['steps']:,} steps, front error {r['error']:.3f}")
 
+    peer_lines = run_peers(10_000, 1.0, tts, log) if args.peers else [
+        "Peers not run (add `--peers`; docs/peers.md says how to install them)."]
+
     info = _core.build_info
     png = args.out / "bench_scaling.png"
     drew = scaling_plot(rows, png)
@@ -256,6 +294,11 @@ def main(args) -> int:
         "(the front reaches the far wall), the peers' 0.25-0.31 being the mark to meet."),
         "",
         *tts_lines,
+        "",
+        ("The established codes on the same dam break (~10,000 particles, 1.0 s, 2 threads), "
+        "each in its own process:"),
+        "",
+        *peer_lines,
         "",
         *([f"![time per step against N]({rel})", ""] if drew else []),
     ])

@@ -108,6 +108,9 @@ def _parser() -> argparse.ArgumentParser:
                                        "runs (default 1000,3000,10000)")
     b.add_argument("--out", type=Path, default=Path("docs"),
                    help="--suite: folder for the plot (default docs)")
+    b.add_argument("--peers", action="store_true",
+                   help="--suite: also run PySPH and SPlisHSPlasH on the same dam break "
+                        "when installed (docs/peers.md)")
     s = sub.add_parser("stress", help="stability matrix and violent scenes",
                        description="Sweep k x dt for the seed method on the dam break and the "
                                    "splash (fixed and adaptive dt), then violent scenes; report "

@@ -1,0 +1,36 @@
+"""bench --suite's pieces on a small case (the suite itself is a long run)."""
+from __future__ import annotations
+
+from sphfluid import bench_suite
+
+
+def test_one_configuration_reports_speed_memory_and_the_front():
+    r = bench_suite.measure_one("dam", "seed", 1000, 1)
+    assert r["particles"] > 900 and r["steps"] >= 20 and r["steps_per_s"] > 0
+    assert 100 < r["bytes_per_particle"] < 5000  # the solver's own arrays
+    assert set(r["phases_us"]) >= {"sort", "neighbours", "forces", "integrate"}
+    # 2,200 steps of 4.5e-4 s: the front has crossed the 4 m tank by then
+    assert abs(r["Z"] - r["Z_ref"]) < 0.3 and r["Z"] <= 4.05
+
+
+def test_bare_loop_has_no_walls_and_no_viscosity():
+    scene = bench_suite.bare_scene(1000, "wcsph")
+    assert scene["walls"] == [] and scene["fluid"]["viscosity"] == 0.0
+    r = bench_suite.measure_one("bare", "wcsph", 1000, 1)
+    assert r["phases_us"]["ghosts"] == 0.0
+    assert "Z" not in r
+
+
+def test_tables_show_efficiency_against_one_thread():
+    one = {"kind": "dam", "method": "seed", "threads": 1, "particles": 1000, "steps": 100,
+           "wall": 1.0, "steps_per_s": 100.0, "pps": 1e5, "ns_per_ps": 1e4,
+           "phases_us": {"sort": 1.0}, "pairs_per_particle": 10.0, "bytes_per_particle": 190.0,
+           "peak_bytes_per_particle": 400.0, "T": 0.1, "Z": 1.0, "Z_ref": 1.0}
+    two = dict(one, threads=2, steps_per_s=180.0, wall=100 / 180)
+    table = bench_suite.throughput_table([one, two])
+    assert "| 90% |" in table
+    assert "failed" in bench_suite.throughput_table([{"kind": "dam", "method": "seed",
+                                                      "threads": 2, "target": 1000,
+                                                      "error": "over the time limit"}])
+    assert bench_suite.steps_for(1_000_000) == (5, 20)
+    assert bench_suite.steps_for(1_000)[1] == 2000
