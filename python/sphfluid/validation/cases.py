@@ -192,6 +192,7 @@ class Hydrostatic(Case):
         v = sim.velocities
         order = np.argsort(sim.ids)
         return {"t": sim.time, "vmax": float(np.sqrt((v**2).sum(1)).max()),
+                "kinetic": 0.5 * sim.particle_mass * float((v**2).sum()),
                 "y": sim.positions[order, 1].copy(), "p": sim.pressures[order].copy(),
                 "rho": sim.densities[order].copy()}
 
@@ -215,6 +216,8 @@ class Hydrostatic(Case):
                                                / scale),
             "max |rho/rho0 - 1|": float(np.abs(last["rho"] / rho0 - 1).max()),
             "max |v| / sqrt(gH)": last["vmax"] / math.sqrt(G * H),
+            # the residual kinetic energy; M = rho0 H x 1 m, the column's mass
+            "kinetic energy / (M g H)": last["kinetic"] / (rho0 * H * G * H),
             "bottom p / (rho0 g H)": float(p[y < 2 * result.spacing].mean() / scale),
         }
         result.curves = {"y": y, "p": p,
