@@ -143,3 +143,25 @@ def test_every_scene_runs_with_wcsph_by_changing_the_method_alone(path):
     sim.step(50)
     assert np.all(np.isfinite(sim.positions))
     assert sim.stats()["max_density_error"] < 1.0
+
+
+def test_dam_break_compression_within_one_percent_for_99_percent_of_particles():
+    """The issue's 1 % on the dam break, counting compression only (rho > rho0:
+    the free surface's deficit is kernel truncation, not compression), sampled
+    every 0.01 s to t = 1 s at ~3,000 particles. Measured: mean <= 0.2 %, 99th
+    percentile <= 0.6 %; single particles at the impacts reach a few per cent,
+    so the per-particle maximum is not bounded here (README)."""
+    from sphfluid.bench import dam_break_scene
+
+    scene = dam_break_scene(3000, "wcsph")
+    scene["solver"]["time_step"] = "auto"
+    sim = sphfluid.Simulation(scene)
+    worst_mean = worst_p99 = 0.0
+    for t in np.arange(0.01, 1.0001, 0.01):
+        sim.advance_to(t)
+        c = np.maximum(sim.densities / 1000.0 - 1.0, 0.0)
+        worst_mean = max(worst_mean, c.mean())
+        worst_p99 = max(worst_p99, np.quantile(c, 0.99))
+    assert sim.removed_particles == 0
+    assert worst_mean < 0.005
+    assert worst_p99 < 0.01
