@@ -287,6 +287,16 @@ Real Solver::choose_dt(Real dt_cap) {
   return dt_cap > 0 ? std::min(dt, dt_cap) : dt;
 }
 
+Real Solver::step_size(Real dt, Real dt_cap) {
+  if (dt > 0) {
+    last_limit_ = TimeStepLimit::kFixed;
+  } else {
+    dt = choose_dt(dt_cap);
+  }
+  last_dt_ = dt;
+  return dt;
+}
+
 void Solver::compute_forces() { (this->*eval_fn_)(); }
 
 // --- phases -----------------------------------------------------------------
@@ -294,12 +304,7 @@ void Solver::compute_forces() { (this->*eval_fn_)(); }
 template <unsigned F>
 void Solver::step_impl(Real dt, Real dt_cap) {
   evaluate_impl<F>();
-  if (dt > 0) {
-    last_limit_ = TimeStepLimit::kFixed;
-  } else {
-    dt = choose_dt(dt_cap);
-  }
-  last_dt_ = dt;
+  dt = step_size(dt, dt_cap);
   integrate<F>(dt, dt);
   mark(kIntegrate);
   remove_outside_domain();

@@ -107,6 +107,8 @@ class Solver {
   // dt > 0: a fixed step; otherwise the adaptive one, at most dt_cap when > 0.
   template <unsigned F> void step_impl(Real dt, Real dt_cap);
   Real choose_dt(Real dt_cap);
+  // This step's dt: the fixed one (dt > 0) or choose_dt's; recorded as last_dt_.
+  Real step_size(Real dt, Real dt_cap);
   // One step (fixed dt > 0, or adaptive), retried with halved dt on a trip.
   void guarded_step(Real dt, Real dt_cap);
   void compute_energy_budget();

@@ -23,12 +23,7 @@ void Solver::select_wcsph_step() {
 // positions (the dissipative terms with the half-step velocity); v += dt/2 a.
 template <unsigned F>
 void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
-  if (dt > 0) {
-    last_limit_ = TimeStepLimit::kFixed;
-  } else {
-    dt = choose_dt(dt_cap);
-  }
-  last_dt_ = dt;
+  dt = step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);

@@ -141,13 +141,16 @@ def test_a_wall_drawn_with_the_mouse_is_respected(tmp_path):
     assert sim.positions[:, 1].min() > min(y1, y2)  # the block landed on the new wall
 
 
+def hover_and_press(pos, key: str) -> list:
+    """Events of one frame: the mouse moves to pos, then the key is pressed."""
+    return [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=pos, rel=(0, 0), buttons=(0, 0, 0)),
+            lambda pg: pg.event.Event(pg.KEYDOWN, key=getattr(pg, key), mod=0)]
+
+
 def test_deleting_the_wall_under_the_cursor(tmp_path):
     scene = falling_block(tmp_path)
     size = (500, 400)
-    floor_mid = screen_of(scene, size, (0.5, 0.0))
-    events = {1: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=floor_mid, rel=(0, 0),
-                                            buttons=(0, 0, 0)),
-                  lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_x, mod=0)]}
+    events = {1: hover_and_press(screen_of(scene, size, (0.5, 0.0)), "K_x")}
     sim = scripted_view(scene, events, frames=3, size=size)
     assert len(sim.scene.walls) == len(scene.walls) - 1
     assert ((0.0, 0.0), (1.0, 0.0)) not in sim.scene.walls
@@ -156,10 +159,7 @@ def test_deleting_the_wall_under_the_cursor(tmp_path):
 def test_pouring_adds_particles(tmp_path):
     scene = falling_block(tmp_path)
     size = (500, 400)
-    spot = screen_of(scene, size, (0.5, 0.95))
-    events = {1: [lambda pg: pg.event.Event(pg.MOUSEMOTION, pos=spot, rel=(0, 0),
-                                            buttons=(0, 0, 0)),
-                  lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_e, mod=0)]}
+    events = {1: hover_and_press(screen_of(scene, size, (0.5, 0.95)), "K_e")}
     n0 = sphfluid.Simulation(scene).n_particles
     sim = scripted_view(scene, events, frames=30, size=size)
     assert sim.n_particles > n0 + 6

@@ -17,13 +17,6 @@ import numpy as np
 from . import _core
 from .simulation import Simulation
 
-# Martin & Moyce (1952), n^2 = 2, surge front Z = x/a against T = t sqrt(2 g / a)
-# (their Table 2, a = 2.25 in): ../shared/reference/dambreak_martin_moyce.csv.
-MM_T = np.array([0.0, 0.41, 0.84, 1.19, 1.43, 1.63, 1.83, 1.98, 2.20, 2.32, 2.51, 2.65, 2.83,
-                 2.98, 3.11, 3.33])
-MM_Z = np.array([1.0, 1.11, 1.22, 1.44, 1.67, 1.89, 2.11, 2.33, 2.56, 2.78, 3.00, 3.22, 3.44,
-                 3.67, 3.89, 4.11])
-
 
 def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     """The bundled dam break (1 x 2 m column, 4 m tank) at about n_target particles.
@@ -52,12 +45,15 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
 
 
 def front_error(sim: Simulation, a: float = 1.0) -> tuple[float, float, float]:
-    """(T, simulated Z, Martin & Moyce Z at that T); the front ignores the two
-    particles farthest out (spray)."""
-    t_star = sim.time * math.sqrt(2 * 9.81 / a)
-    x = np.sort(sim.positions[:, 0])
-    z = x[-3] / a if len(x) > 3 else float("nan")
-    return t_star, z, float(np.interp(t_star, MM_T, MM_Z))
+    """(T, simulated Z, Martin & Moyce's Table 2 Z at that T, with Z(0) = 1): the
+    surge front of the validation suite (spray skipped) at the time reached."""
+    from .validation.cases import surge_front
+    from .validation.reference import front_time_scale, martin_moyce
+
+    mm = martin_moyce("front")
+    t_star = sim.time * front_time_scale(a)
+    z = surge_front(sim.positions, sim.scene.spacing) / a
+    return t_star, z, float(np.interp(t_star, np.r_[0.0, mm.x], np.r_[1.0, mm.y]))
 
 
 def guard_cost(n_target: int, steps: int, repeats: int) -> dict:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import dam_break_scene, machine
+from .bench import dam_break_scene, front_error, machine
 
 METHODS = ("seed", "wcsph")
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
@@ -53,8 +53,6 @@ def steps_for(n: int) -> tuple[int, int]:
 def measure_one(kind: str, method: str, n_target: int, threads: int) -> dict:
     """Time one configuration in this process (called in a child process)."""
     from .simulation import Simulation
-    from .validation.cases import surge_front
-    from .validation.reference import front_time_scale, martin_moyce
 
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB, after imports
     scene = bare_scene(n_target, method) if kind == "bare" else dam_break_scene(n_target, method)
@@ -75,11 +73,7 @@ def measure_one(kind: str, method: str, n_target: int, threads: int) -> dict:
                resource.RUSAGE_SELF).ru_maxrss - base) / n,
            "bytes_per_particle": sum(sim._solver.memory_bytes.values()) / n}
     if kind == "dam":
-        # The front against Martin & Moyce at the time reached (their Z(0) = 1).
-        mm = martin_moyce("front")
-        T = sim.time * front_time_scale(1.0)
-        z_ref = float(np.interp(T, np.r_[0.0, mm.x], np.r_[1.0, mm.y]))
-        out.update(T=T, Z=surge_front(sim.positions, sim.scene.spacing), Z_ref=z_ref)
+        out["T"], out["Z"], out["Z_ref"] = front_error(sim)
     return out
 
 

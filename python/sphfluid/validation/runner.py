@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bench import machine
 from .cases import CASES, METHODS, Result
 
 # Quick-mode bounds on each run's primary error, per (case, method, n): today's
@@ -169,6 +170,7 @@ def _finest(results: list[Result], method: str) -> Result | None:
 def _profile(name: str, results: list[Result], ax) -> None:
     from . import reference as ref
 
+    case = CASES[name]
     best = {m: r for m in METHODS if (r := _finest(results, m)) is not None}
     if name == "dam_break":
         mm = ref.martin_moyce("front")
@@ -180,20 +182,23 @@ def _profile(name: str, results: list[Result], ax) -> None:
         ax.set_ylabel("Z = front / a")
         ax.set_ylim(0.9, 4.3)
     elif name == "hydrostatic":
-        y = np.linspace(0.0, 1.0, 50)
-        ax.plot(ref.hydrostatic_pressure(y, depth=1.0, rho0=1000.0) / 9810, y, "k-",
+        H = case.depth
+        scale = 1000.0 * 9.81 * H  # rho0 g H, the scene's rho0
+        y = np.linspace(0.0, H, 50)
+        ax.plot(ref.hydrostatic_pressure(y, depth=H, rho0=1000.0) / scale, y, "k-",
                 label="rho0 g (H - y)")
         for m, r in best.items():
-            ax.plot(r.curves["p"] / 9810, r.curves["y"], ".", ms=3, color=COLOURS[m],
+            ax.plot(r.curves["p"] / scale, r.curves["y"], ".", ms=3, color=COLOURS[m],
                     label=f"{m}, n={r.n} (last-second mean)")
         ax.set_xlabel("p / (rho0 g H)")
         ax.set_ylabel("y, m")
     elif name == "poiseuille":
-        y = np.linspace(0.0, 1e-3, 100)
+        y = np.linspace(0.0, case.length, 100)
         for i, (m, r) in enumerate(best.items()):
             for k, (t, yy, vx) in enumerate(r.curves["profiles"]):
                 if i == 0:
-                    exact = ref.poiseuille_velocity(y, t, gap=1e-3, nu=1e-6, force=2e-4)
+                    exact = ref.poiseuille_velocity(y, t, gap=case.length, nu=case.nu,
+                                                    force=case.force)
                     ax.plot(exact / r.curves["v0"], y * 1e3, "k-", lw=0.8,
                             label="series solution" if k == 0 else None)
                 ax.plot(vx / r.curves["v0"], yy * 1e3, "ox"[i % 2], ms=3, color=COLOURS[m],
@@ -201,8 +206,9 @@ def _profile(name: str, results: list[Result], ax) -> None:
         ax.set_xlabel("v_x / v_max (t = 0.0225, 0.045, 0.1125, 0.225, 1 s)")
         ax.set_ylabel("y, mm")
     elif name == "taylor_green":
-        t = np.linspace(0.0, 1.0, 50)
-        ax.semilogy(t, ref.taylor_green_decay(t, nu=0.01), "k-", label="exp(-8 pi^2 nu t)")
+        t = np.linspace(0.0, case.duration, 50)
+        ax.semilogy(t, ref.taylor_green_decay(t, length=case.length, nu=case.nu), "k-",
+                    label="exp(-8 pi^2 nu t)")
         for m, r in best.items():
             ax.semilogy(r.curves["t"], r.curves["vmax"], "o-", ms=3, color=COLOURS[m],
                         label=f"{m}, n={r.n}")
@@ -232,12 +238,6 @@ def _profile(name: str, results: list[Result], ax) -> None:
     ax.grid(True, alpha=0.3)
     if ax.lines or ax.collections:
         ax.legend(fontsize=8)
-
-
-def machine() -> str:
-    from ..bench import machine as bench_machine
-
-    return bench_machine()
 
 
 def report(results: list[Result], names: list[str], mode: str, command: str, seconds: float,
