@@ -31,10 +31,12 @@ class CellGrid {
             const PeriodicBox& box = PeriodicBox());
 
   // After the particles were permuted by `order`: neighbour list for radius h.
-  // visit(i, nbrs, count) runs right after particle i's list is built, while
-  // its neighbours are still in cache (the solver sums densities there).
-  template <class Visit>
-  void neighbours(const Vec2* x, Index n, Real h, int threads, Csr<Index>& out,
+  // visit(i, nbrs, count, sum) runs right after particle i's list is built,
+  // with sum = the sum of w(|r_ij|^2) over its neighbours, taken in the same
+  // pass over the candidates (the solver's density). w(r2) is called with a
+  // Real, and, where the AVX-512 filter runs, with a __m512d of eight r2.
+  template <class WeightOfR2, class Visit>
+  void neighbours(const Vec2* x, Index n, Real h, int threads, Csr<Index>& out, WeightOfR2 w,
                   Visit visit) const {
     const Real h2 = h * h;
     out.build(n, threads, [&](Index i, Chunk<Index>& list) {
@@ -50,13 +52,14 @@ class CellGrid {
       const std::size_t base = list.size();
       Index* found = list.extend(candidates + kSlack);
       Index count = 0;
+      Sum sum;
       for (Index yy = y0; yy <= y1; ++yy) {
         // Cells x0..x1 of one row are contiguous in the sorted storage.
         const Index j0 = cell_start_[yy * nx_ + x0], j1 = cell_start_[yy * nx_ + x1 + 1];
-        count = filter_run(x, xi, i, j0, j1, h2, found, count);
+        count = filter_run(x, xi, i, j0, j1, h2, w, found, count, sum);
       }
       list.resize(base + count);
-      visit(i, found, count);
+      visit(i, found, count, sum.total());
     });
   }
 
@@ -100,10 +103,29 @@ class CellGrid {
 
  private:
   static constexpr Index kSlack = 8;  // filter_run may write 8 lanes past its hits
-  // Appends to found[count..] the j in [j0, j1), j != i, with |x_i - x_j|^2 < h2;
-  // returns the new count. found has room for j1 - j0 + kSlack more entries.
+
+  // The weight sum of one particle: eight lanes where the AVX-512 filter runs,
+  // and a scalar for the scalar loop.
+  struct Sum {
+#if defined(__AVX512F__)
+    __m512d lanes = _mm512_setzero_pd();
+#endif
+    Real scalar = 0;
+    Real total() const {
+#if defined(__AVX512F__)
+      return _mm512_reduce_add_pd(lanes) + scalar;
+#else
+      return scalar;
+#endif
+    }
+  };
+
+  // Appends to found[count..] the j in [j0, j1), j != i, with |x_i - x_j|^2 < h2,
+  // and adds w(|x_i - x_j|^2) of each to sum; returns the new count. found has
+  // room for j1 - j0 + kSlack more entries.
+  template <class WeightOfR2>
   static Index filter_run(const Vec2* x, const Vec2& xi, Index i, Index j0, Index j1, Real h2,
-                          Index* found, Index count) {
+                          const WeightOfR2& w, Index* found, Index count, Sum& sum) {
     Index j = j0;
 #if defined(__AVX512F__)
     if constexpr (sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double)) {
@@ -136,6 +158,7 @@ class CellGrid {
         const __m512d d2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
         __mmask8 hit = _mm512_mask_cmp_pd_mask(valid, d2, limit, _CMP_LT_OQ);
         if (static_cast<unsigned>(i - j) < 8u) hit &= static_cast<__mmask8>(~(1u << (i - j)));
+        sum.lanes = _mm512_mask_add_pd(sum.lanes, hit, sum.lanes, w(d2));
         // Compress in a register, then store all eight lanes (found has 8
         // entries of slack beyond the candidates): a compress straight to
         // memory is microcoded on some CPUs (measured 2x slower here).
@@ -147,8 +170,11 @@ class CellGrid {
     }
 #endif
     for (; j < j1; ++j) {  // branch-free: write every candidate, keep the hits
+      const Real d2 = (xi - x[j]).squaredNorm();
+      const bool hit = (d2 < h2) & (j != i);
       found[count] = j;
-      count += static_cast<Index>(((xi - x[j]).squaredNorm() < h2) & (j != i));
+      count += static_cast<Index>(hit);
+      sum.scalar += hit ? w(d2) : Real(0);
     }
     return count;
   }

@@ -5,6 +5,10 @@
 
 #include "types.hpp"
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 namespace sphfluid {
 
 struct Kernels {
@@ -28,6 +32,18 @@ struct Kernels {
     const Real d = h2 - r2;
     return d > 0 ? poly6 * d * d * d : Real(0);
   }
+  // w_poly6 as a function object, also on eight r^2 at once (the neighbour
+  // filter's density; lanes with r >= h are the caller's to drop).
+  struct Poly6OfR2 {
+    const Kernels* k;
+    Real operator()(Real r2) const { return k->w_poly6(r2); }
+#if defined(__AVX512F__)
+    __m512d operator()(__m512d r2) const {
+      const __m512d d = _mm512_sub_pd(_mm512_set1_pd(k->h2), r2);
+      return _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(k->poly6), d), d), d);
+    }
+#endif
+  };
   // grad W = -24/(pi h^8) (h^2 - r^2)^2 r_ij         (colour-field normal)
   Vec2 grad_poly6(const Vec2& r_ij, Real r2) const {
     const Real d = h2 - r2;

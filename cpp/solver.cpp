@@ -316,8 +316,7 @@ void Solver::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
-  sort_and_find_neighbours<(F & kPeriodic) != 0>(
-      [this](Real r2) { return kern_.w_poly6(r2); });  // seed eq. 10
+  sort_and_find_neighbours<(F & kPeriodic) != 0>(Kernels::Poly6OfR2{&kern_});  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -340,19 +339,19 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
-  auto density = [&](Index i, const Index* nbr, Index count) {
-    const Vec2 xi = x[i];
-    Real sum = self;
-    for (Index q = 0; q < count; ++q) {
-      const Vec2 r = Periodic ? box_.delta(xi, x[nbr[q]]) : Vec2(xi - x[nbr[q]]);
-      sum += w(r.squaredNorm());
-    }
-    rho[i] = m * sum;
-  };
   if constexpr (Periodic) {
-    grid_.neighbours_periodic(x, n, params_.h, threads_, box_, nbrs_, density);
+    grid_.neighbours_periodic(x, n, params_.h, threads_, box_, nbrs_,
+                              [&](Index i, const Index* nbr, Index count) {
+                                const Vec2 xi = x[i];
+                                Real sum = self;
+                                for (Index q = 0; q < count; ++q)
+                                  sum += w(box_.delta(xi, x[nbr[q]]).squaredNorm());
+                                rho[i] = m * sum;
+                              });
   } else {
-    grid_.neighbours(x, n, params_.h, threads_, nbrs_, density);
+    // The sum over the neighbours is taken while the grid filters them.
+    grid_.neighbours(x, n, params_.h, threads_, nbrs_, w,
+                     [&](Index i, const Index*, Index, Real sum) { rho[i] = m * (self + sum); });
   }
   mark(kNeighbours);
 }
