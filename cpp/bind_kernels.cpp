@@ -93,6 +93,18 @@ void bind_kernels(py::module_& m) {
       return w.gradient(x, x.norm());
     });
   }, py::arg("r_ij"), py::arg("h"), "Wendland C2 gradient for offsets r_ij of shape (n, 2)");
+  m.def("wendland_corner", [](double d1, double d2, double h, double dx, double m_over_rho0) {
+    check_h(h);
+    if (!(d1 >= 0 && d2 >= 0 && dx >= 0 && m_over_rho0 >= 0))
+      throw std::invalid_argument("distances, dx and m / rho0 must be >= 0");
+    Wendland w(h);
+    w.build_corner_tables(dx, m_over_rho0);
+    return py::make_tuple(w.corner_half(d1, d2), w.corner_line(d1, d2), w.corner_line(d2, d1));
+  }, py::arg("d1"), py::arg("d2"), py::arg("h"), py::arg("dx") = 0.0, py::arg("m_over_rho0") = 0.0,
+     "wcsph's share of the quadrant beyond a right-angled corner, at distances d1 and d2 from "
+     "its walls: (density / rho0, push along wall 1's normal, push along wall 2's normal), per "
+     "unit 2 p rho0 / rho^2; from the mirrored lattice of spacing dx (dx > 0, particle mass "
+     "m_over_rho0 * rho0) or the continuum (dx = 0)");
   m.def("lattice_mass", [](double rho0, double dx, double h, const std::string& kernel) {
     check_h(h);
     if (!(dx > 0 && rho0 > 0)) throw std::invalid_argument("rho0 and dx must be > 0");

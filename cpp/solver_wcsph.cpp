@@ -12,6 +12,22 @@
 
 namespace sphfluid {
 
+namespace {
+
+// f(r1, d1, r2, d2) for each pair of perpendicular wall ghosts in a row (r_k
+// from the ghost to the particle, d_k = |r_k|): the particle is in a corner, and
+// the two walls' shares both cover the quadrant beyond it.
+template <class F>
+void for_each_corner(Row<Vec2> ghosts, F f) {
+  for (const Vec2* a = ghosts.begin(); a != ghosts.end(); ++a)
+    for (const Vec2* b = a + 1; b != ghosts.end(); ++b) {
+      const Real da = a->norm(), db = b->norm();
+      if (da > 0 && db > 0 && std::abs(a->dot(*b)) < Real(1e-6) * da * db) f(*a, da, *b, db);
+    }
+}
+
+}  // namespace
+
 void Solver::select_wcsph_step() {
   static const StepFn steps[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_step_impl);
   static const EvalFn evals[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_evaluate_impl);
@@ -84,6 +100,10 @@ void Solver::wcsph_evaluate_impl() {
       // Each ghost stands for the wall's half-plane filled with fluid at rho0:
       // its share of the density is rho0 times the kernel's integral over it.
       for (const Vec2& r : ghosts_.row(i)) rho_i += rho0 * W.wall_half(r.norm());
+      // ... and a corner's quadrant once, not twice.
+      for_each_corner(ghosts_.row(i), [&](const Vec2&, Real d1, const Vec2&, Real d2) {
+        rho_i -= rho0 * W.corner_half(d1, d2);
+      });
       rho[i] = rho_i;
     }
     // Tait, gamma = 7, plus the background pressure, clamped at 0: a free
@@ -148,6 +168,10 @@ void Solver::wcsph_evaluate_impl() {
         if constexpr ((F & kViscosity) != 0)
           f += (m * eta2 * inv_i * inv_i * r.dot(gw) / (r2 + eps2)) * vi;
       }
+      // In a corner both walls' pushes include the quadrant beyond it: once only.
+      for_each_corner(ghosts_.row(i), [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+        f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
+      });
     }
     if constexpr ((F & kSurfaceTension) != 0) {
       const Real norm = normal.norm();

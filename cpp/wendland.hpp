@@ -22,6 +22,12 @@ struct Wendland {
   // integral of W along the wall line; half is then its integral beyond d).
   static constexpr int kTable = 256;
   std::vector<Real> line_, half_;
+  // Where two perpendicular walls meet, each wall's share covers the quadrant
+  // beyond both, so a particle near the corner counts it twice; corner_half
+  // and corner_line (as half and line, for the distances d1, d2 to the two
+  // walls, on kCorner + 1 points of each in [0, h]) are what to take away.
+  static constexpr int kCorner = 96;
+  std::vector<Real> corner_half_, corner_line_;
 
   explicit Wendland(Real h_)
       : h(h_), h2(h_ * h_), inv_h(1 / h_), w(7 / (kPi * h_ * h_)),
@@ -32,6 +38,7 @@ struct Wendland {
   // so that a lattice resting against a wall has exactly its interior density.
   // Both tables are divided by rho0 (the caller multiplies by it).
   void build_wall_tables(Real dx = 0, Real m_over_rho0 = 0) {
+    build_corner_tables(dx, m_over_rho0);
     if (dx > 0) {
       build_lattice_tables(dx, m_over_rho0);
       return;
@@ -77,6 +84,53 @@ struct Wendland {
       line_[t] = sg * m_over_rho0;
     }
   }
+
+  // The quadrant beyond two perpendicular walls at distances d1 and d2: with a
+  // lattice spacing dx > 0, the particle's lattice mirrored through the corner
+  // (points at 2 d1 + k dx and 2 d2 + l dx along the two wall normals, k, l >= 0,
+  // each of mass m), else the continuum (midpoint rule). corner_half_ holds the
+  // density share over rho0; corner_line_ the push along wall 1's normal.
+  void build_corner_tables(Real dx, Real m_over_rho0) {
+    const int side = kCorner + 1;
+    corner_half_.assign(static_cast<std::size_t>(side) * side, 0);
+    corner_line_.assign(static_cast<std::size_t>(side) * side, 0);
+    const int quad = 32;         // continuum: midpoints per axis
+    const Real cell = h / quad;  // over [0, h]^2 beyond the corner
+    for (int a = 0; a <= kCorner; ++a)
+      for (int b = 0; b <= kCorner; ++b) {
+        const Real d1 = h * a / kCorner, d2 = h * b / kCorner;
+        Real sw = 0, sg = 0;
+        auto add = [&](Real u, Real v, Real weight) {  // u, v: along normals 1, 2
+          const Real r = std::sqrt(u * u + v * v);
+          if (r >= h) return;
+          const Real c = 1 - r * inv_h;
+          sw += weight * value(r);
+          sg += weight * -grad * c * c * c * u;
+        };
+        if (dx > 0) {
+          for (int k = 0; 2 * d1 + k * dx < h; ++k)
+            for (int l = 0; 2 * d2 + l * dx < h; ++l)
+              add(2 * d1 + k * dx, 2 * d2 + l * dx, m_over_rho0);
+        } else {
+          for (int k = 0; k < quad; ++k)
+            for (int l = 0; l < quad; ++l)
+              add(d1 + (k + Real(0.5)) * cell, d2 + (l + Real(0.5)) * cell, cell * cell);
+        }
+        corner_half_[static_cast<std::size_t>(a) * side + b] = sw;
+        corner_line_[static_cast<std::size_t>(a) * side + b] = sg;
+      }
+  }
+  // Bilinear in the corner tables; 0 once either distance reaches h.
+  Real corner(const std::vector<Real>& t, Real d1, Real d2) const {
+    const Real f1 = d1 * inv_h * kCorner, f2 = d2 * inv_h * kCorner;
+    if (!(f1 < kCorner && f2 < kCorner)) return 0;
+    const int a = static_cast<int>(f1), b = static_cast<int>(f2), side = kCorner + 1;
+    const Real s = f1 - a, u = f2 - b;
+    const Real* row = t.data() + static_cast<std::size_t>(a) * side + b;
+    return (1 - s) * ((1 - u) * row[0] + u * row[1]) + s * ((1 - u) * row[side] + u * row[side + 1]);
+  }
+  Real corner_half(Real d1, Real d2) const { return corner(corner_half_, d1, d2); }
+  Real corner_line(Real d1, Real d2) const { return corner(corner_line_, d1, d2); }
 
   Real table(const std::vector<Real>& t, Real d) const {
     const Real f = d * inv_h * kTable;
