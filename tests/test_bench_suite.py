@@ -1,6 +1,8 @@
 """bench --suite's pieces on a small case (the suite itself is a long run)."""
 from __future__ import annotations
 
+import pytest
+
 from sphfluid import bench_suite
 
 
@@ -13,12 +15,16 @@ def test_one_configuration_reports_speed_memory_and_the_front():
     assert abs(r["Z"] - r["Z_ref"]) < 0.3 and r["Z"] <= 4.05
 
 
-def test_bare_loop_has_no_walls_and_no_viscosity():
-    scene = bench_suite.bare_scene(1000, "wcsph")
+@pytest.mark.parametrize("method,n", [("wcsph", 1000), ("seed", 1000), ("seed", 10000)])
+def test_bare_loop_has_no_walls_and_no_viscosity_and_completes(method, n):
+    """Timed within the steps the seed's free block holds (it blew up in the
+    suite's tables when the bare loop ran 2,200 steps)."""
+    scene = bench_suite.bare_scene(n, method)
     assert scene["walls"] == [] and scene["fluid"]["viscosity"] == 0.0
-    r = bench_suite.measure_one("bare", "wcsph", 1000, 1)
+    r = bench_suite.measure_one("bare", method, n, 1)
     assert r["phases_us"]["ghosts"] == 0.0
     assert "Z" not in r
+    assert 150 <= r["steps"] <= bench_suite.BARE_STEPS - bench_suite.BARE_STEPS // 10
 
 
 def test_tables_show_efficiency_against_one_thread():
