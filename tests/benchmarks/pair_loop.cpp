@@ -1,9 +1,10 @@
-// Three ways to evaluate the seed's pair force (spiky pressure gradient plus the
+// Four ways to evaluate the seed's pair force (spiky pressure gradient plus the
 // viscosity Laplacian) on a jittered lattice of 10,000 particles sorted by
 // cells of h = 2 dx, as in the 10k dam break: the scalar neighbour-list loop the
-// solver runs, the same list eight lanes at a time with AVX-512 gathers, and
-// AVX-512 over the contiguous candidate runs of the 3 x 3 cells (no list, the
-// r < h test as a mask). BENCHMARKS.md, "What was tried", quotes its output.
+// solver runs, the same list eight lanes at a time with AVX-512 gathers, only
+// the square roots and divisions on AVX-512 lanes with scalar sums, and AVX-512
+// over the contiguous candidate runs of the 3 x 3 cells (no list, the r < h
+// test as a mask). BENCHMARKS.md, "What was tried", quotes its output.
 //
 //   g++ -O3 -march=native -fno-math-errno tests/benchmarks/pair_loop.cpp -o /tmp/pair_loop
 //   /tmp/pair_loop
