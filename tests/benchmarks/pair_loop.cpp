@@ -1,10 +1,11 @@
-// Four ways to evaluate the seed's pair force (spiky pressure gradient plus the
+// Five ways to evaluate the seed's pair force (spiky pressure gradient plus the
 // viscosity Laplacian) on a jittered lattice of 10,000 particles sorted by
 // cells of h = 2 dx, as in the 10k dam break: the scalar neighbour-list loop the
 // solver runs, the same list eight lanes at a time with AVX-512 gathers, only
-// the square roots and divisions on AVX-512 lanes with scalar sums, and AVX-512
-// over the contiguous candidate runs of the 3 x 3 cells (no list, the r < h
-// test as a mask). BENCHMARKS.md, "What was tried", quotes its output.
+// the square roots and divisions on AVX-512 lanes with scalar sums, each pair
+// once with its terms scattered to both particles, and AVX-512 over the
+// contiguous candidate runs of the 3 x 3 cells (no list, the r < h test as a
+// mask). BENCHMARKS.md, "What was tried", quotes its output.
 //
 //   g++ -O3 -march=native -fno-math-errno tests/benchmarks/pair_loop.cpp -o /tmp/pair_loop
 //   /tmp/pair_loop
@@ -179,6 +180,34 @@ void hybrid_list(const Cloud& c, const Coefficients& k, double* f) {
   }
 }
 
+// Each pair once (j > i), its square root and division shared by both
+// particles and its terms scattered to both (serial; the solver's threads would
+// need the scatter made independent of their number).
+void symmetric_list(const Cloud& c, const Coefficients& k, double* f) {
+  std::fill(f, f + 2 * c.n, 0.0);
+  for (int i = 0; i < c.n; ++i) {
+    const double xi = c.x[2 * i], yi = c.x[2 * i + 1], pi = c.p[i], iri = c.inv_rho[i];
+    const double vxi = c.v[2 * i], vyi = c.v[2 * i + 1];
+    double fx = 0, fy = 0;
+    for (int q = c.row[i]; q < c.row[i + 1]; ++q) {
+      const int j = c.nbr[q];
+      if (j < i) continue;
+      const double dx = xi - c.x[2 * j], dy = yi - c.x[2 * j + 1];
+      const double r = std::sqrt(dx * dx + dy * dy), d = c.h - r;
+      const double g = (d > 0 && r > 0) ? k.grad * d * d / r : 0;
+      const double l = d > 0 ? k.eta * k.lap * d : 0;
+      const double pp = 0.5 * (pi + c.p[j]) * g, irj = c.inv_rho[j];
+      const double dvx = c.v[2 * j] - vxi, dvy = c.v[2 * j + 1] - vyi;
+      fx += irj * (l * dvx - pp * dx);
+      fy += irj * (l * dvy - pp * dy);
+      f[2 * j] += iri * (pp * dx - l * dvx);
+      f[2 * j + 1] += iri * (pp * dy - l * dvy);
+    }
+    f[2 * i] += fx;
+    f[2 * i + 1] += fy;
+  }
+}
+
 void cell_runs(const Cloud& c, const Coefficients& k, double* f) {
   const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
   const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
@@ -252,6 +281,7 @@ int main() {
   for (const Variant& var : {Variant{"scalar, neighbour list", scalar_list},
                              Variant{"AVX-512, list with gathers", gather_list},
                              Variant{"AVX-512 roots, scalar sums", hybrid_list},
+                             Variant{"scalar, each pair once", symmetric_list},
                              Variant{"AVX-512, cell runs (no list)", cell_runs}}) {
     double best = 1e9;
     for (int rep = 0; rep < 5; ++rep) {
