@@ -383,6 +383,57 @@ void Solver::compute_density() {
   }
 }
 
+// The fluid pairs of compute_accelerations (pressure, viscosity) with each pair
+// evaluated once: its square root and division serve both particles. The
+// particles are cut into blocks whose size depends only on n; within a block,
+// in storage order, a pair's terms go to both particles, and a pair that
+// crosses blocks is evaluated from each side. So every sum is taken in one
+// order whatever the thread count. Leaves the force densities in a[].
+template <bool Viscosity>
+void Solver::seed_pairs_once() {
+  const Index n = size();
+  const Vec2* x = ps_.x.data();
+  const Vec2* v = ps_.v.data();
+  const Real* p = ps_.p.data();
+  const Real* inv_rho = inv_rho_.data();
+  Vec2* a = ps_.a.data();
+  const Real half_m = Real(0.5) * params_.mass, eta_m = params_.eta * params_.mass;
+  const Index block = std::max<Index>(kPairBlockMin, (n + kPairBlocks - 1) / kPairBlocks);
+  const Index blocks = (n + block - 1) / block;
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index b = 0; b < blocks; ++b) {
+    const Index lo = b * block, hi = std::min(n, lo + block);
+    std::fill(a + lo, a + hi, Vec2::Zero());
+    for (Index i = lo; i < hi; ++i) {
+      const Vec2 xi = x[i];
+      const Real pi = p[i], ir_i = inv_rho[i];
+      [[maybe_unused]] const Vec2 vi = v[i];
+      Vec2 fi = a[i];  // from the pairs with earlier particles of the block
+      for (const Index j : nbrs_.row(i)) {
+        const bool mine = j >= lo && j < hi;
+        if (mine && j < i) continue;  // evaluated in j's row
+        const Vec2 r = xi - x[j];
+        const Real rl = r.norm(), d = kern_.h - rl;
+        // -m (p_i + p_j) / (2 rho_j) grad W_spiky(r) for i; for j the same
+        // with 1 / rho_i and r_ji = -r (seed eq. 14)
+        const Real grad = (d > 0 && rl > 0) ? kern_.spiky_grad * d * d / rl : Real(0);
+        const Real fp = half_m * (pi + p[j]) * grad;
+        const Real ir_j = inv_rho[j];
+        fi -= (fp * ir_j) * r;
+        Vec2 fj = (fp * ir_i) * r;
+        if constexpr (Viscosity) {  // eta m / rho_j lap W (v_j - v_i)   (eq. 17)
+          const Real lap = d > 0 ? eta_m * kern_.visc_lap * d : Real(0);
+          const Vec2 dv = v[j] - vi;
+          fi += (lap * ir_j) * dv;
+          fj -= (lap * ir_i) * dv;
+        }
+        if (mine) a[j] += fj;
+      }
+      a[i] = fi;
+    }
+  }
+}
+
 // Pressure (seed eq. 14), viscosity (17) and colour-field surface tension
 // (18-20) as force densities; a = f / rho + g. Wall ghosts add pressure and
 // viscosity only. A ghost has the density rho0 * ghost_density_ratio and mirrors
@@ -402,16 +453,21 @@ void Solver::compute_accelerations() {
   [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
   const Vec2 g = params_.gravity;
+  // Without tension (and periodic seams), each fluid pair once: a[] holds the
+  // pair sums when the loop below starts.
+  constexpr bool kPairsOnce = (F & (kSurfaceTension | kPeriodic)) == 0;
+  if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
     const Real pi = p[i], rhoi = rho[i];
     Vec2 f = Vec2::Zero();
+    if constexpr (kPairsOnce) f = a[i];
     [[maybe_unused]] Vec2 vi = v[i];
     [[maybe_unused]] Vec2 normal = Vec2::Zero();  // n_i = grad c_i   (eq. 18)
     [[maybe_unused]] Real lap_c = 0;              // lap c_i
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m / rhoi * lap_self;
-    for (const Index j : nbrs_.row(i)) {
+    if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm();
       const Real rl = std::sqrt(r2);

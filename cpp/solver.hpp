@@ -122,6 +122,7 @@ class Solver {
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
+  template <bool Viscosity> void seed_pairs_once();
   template <unsigned F> void integrate(Real dt, Real kick);
   template <bool Periodic, class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
@@ -173,6 +174,8 @@ class Solver {
   std::chrono::steady_clock::time_point mark_;
 
   static constexpr std::size_t kRetryLog = 100;
+  // seed_pairs_once's blocks: n / kPairBlocks particles, at least kPairBlockMin.
+  static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024;
   Real energy_budget_ = 0;
   std::int64_t retried_steps_ = 0;
   std::vector<std::string> retry_log_;
