@@ -123,6 +123,7 @@ class Solver {
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
   template <bool Viscosity> void seed_pairs_once();
+  template <bool Viscosity> void wcsph_pairs_once();
   template <unsigned F> void integrate(Real dt, Real kick);
   template <bool Periodic, class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.

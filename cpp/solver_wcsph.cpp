@@ -71,6 +71,56 @@ void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   ++step_count_;
 }
 
+// The fluid pairs of wcsph_evaluate_impl (pressure, artificial and physical
+// viscosity), each pair once: the pair force is antisymmetric, so j gets minus
+// what i gets. Blocks as in seed_pairs_once (sums in one order whatever the
+// thread count). Leaves the accelerations from fluid pairs in a[].
+template <bool Viscosity>
+void Solver::wcsph_pairs_once() {
+  const Index n = size();
+  const SimParams& P = params_;
+  const Wendland& W = wendland_;
+  const Vec2* x = ps_.x.data();
+  const Vec2* v = ps_.v.data();
+  const Real* rho = ps_.rho.data();
+  const Real* por2 = p_over_rho2_.data();
+  const Real* inv_rho = inv_rho_.data();
+  Vec2* a = ps_.a.data();
+  const Real m = P.mass, hs = Real(0.5) * P.h;
+  const Real eps2 = Real(0.01) * hs * hs;
+  const Real av = P.alpha * P.c0 * hs;
+  [[maybe_unused]] const Real eta2 = 2 * P.eta;
+  const Index block = std::max<Index>(kPairBlockMin, (n + kPairBlocks - 1) / kPairBlocks);
+  const Index blocks = (n + block - 1) / block;
+#pragma omp parallel for schedule(static) num_threads(threads_)
+  for (Index b = 0; b < blocks; ++b) {
+    const Index lo = b * block, hi = std::min(n, lo + block);
+    std::fill(a + lo, a + hi, Vec2::Zero());
+    for (Index i = lo; i < hi; ++i) {
+      const Vec2 xi = x[i], vi = v[i];
+      const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
+      Vec2 fi = a[i];  // from the pairs with earlier particles of the block
+      for (const Index j : nbrs_.row(i)) {
+        const bool mine = j >= lo && j < hi;
+        if (mine && j < i) continue;  // evaluated in j's row
+        const Vec2 r = xi - x[j];
+        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
+        const Vec2 gw = W.gradient(r, rl);
+        const Vec2 vij = vi - v[j];
+        Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
+        const Real vr = vij.dot(r);
+        if (vr < 0) coef -= av * vr / (r2 + eps2) * 2 / (rhoi + rho[j]);  // + Pi_ij
+        Vec2 fij = -(m * coef) * gw;
+        if constexpr (Viscosity)  // Morris, Fox & Zhu (1997)
+          fij += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) / (r2 + eps2)) * vij;
+        fi += fij;
+        if (mine) a[j] -= fij;
+      }
+      a[i] = fi;
+    }
+  }
+}
+
 template <unsigned F>
 void Solver::wcsph_evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
@@ -127,15 +177,20 @@ void Solver::wcsph_evaluate_impl() {
   [[maybe_unused]] const Real threshold = P.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = W.laplacian(0);
   const Vec2 g = P.gravity;
+  // Without tension (and periodic seams), each fluid pair once: a[] holds the
+  // pair sums when the loop below starts.
+  constexpr bool kPairsOnce = (F & (kSurfaceTension | kPeriodic)) == 0;
+  if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i], vi = v[i];
     const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
     Vec2 f = Vec2::Zero();
+    if constexpr (kPairsOnce) f = a[i];
     [[maybe_unused]] Vec2 normal = Vec2::Zero();
     [[maybe_unused]] Real lap_c = 0;
     if constexpr ((F & kSurfaceTension) != 0) lap_c = m * inv_i * lap_self;
-    for (const Index j : nbrs_.row(i)) {
+    if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
       const Vec2 gw = W.gradient(r, rl);

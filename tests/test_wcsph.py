@@ -64,6 +64,27 @@ def test_native_wcsph_equals_brute_force(alpha, eta, p_b):
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_native_wcsph_equals_brute_force_across_pair_blocks(threads):
+    """Enough particles for several of the blocks in which the pairs are
+    evaluated once (at least 1,024 particles a block), so pairs within a block
+    and across blocks both occur, on one thread and on two."""
+    rng = np.random.default_rng(9)
+    n, h = 2600, 0.1
+    x = rng.uniform(0.0, 1.3, (n, 2))
+    v = rng.normal(0.0, 1.0, (n, 2))
+    p = _core.SimParams()
+    p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, h, 0.6, 1000.0, 20.0
+    p.alpha, p.eta = 0.3, 0.5
+    p.domain_min, p.domain_max = (-1.0, -1.0), (3.0, 3.0)
+    p.threads = threads
+    s = _core.Solver(p, x, v, np.zeros((0, 2, 2)))
+    rho, pr, a = wcsph_forces(x, v, h=h, m=0.6, rho0=1000.0, c0=20.0, alpha=0.3, eta=0.5)
+    o = np.argsort(s.ids)
+    np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
+    np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+
+
 def wcsph_scene(name, **fluid):
     d = json.loads((ROOT / "scenes" / name).read_text())
     d["solver"] = {"method": "wcsph", "time_step": "auto"}
