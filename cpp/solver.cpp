@@ -1,6 +1,7 @@
 // The seed method's step (SPEC.md, seed pseudocode 4.3) as ordered phases, each
-// one parallel loop in gather form: iteration i reads its neighbours and writes
-// only particle i, so results do not depend on the thread count.
+// one parallel loop whose sums do not depend on the thread count: in gather form
+// (iteration i reads its neighbours and writes only particle i), or, for the
+// pair forces, over blocks of particles fixed by n alone (seed_pairs_once).
 #include "solver.hpp"
 
 #include <algorithm>

@@ -1,4 +1,5 @@
-"""1 and 2 threads give identical states: every loop is a per-particle gather."""
+"""1 and 2 threads give identical states: every loop is a per-particle gather, or
+runs over blocks of particles fixed by their number alone (the pair forces)."""
 from __future__ import annotations
 
 import json
