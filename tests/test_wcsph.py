@@ -41,27 +41,36 @@ def test_wendland_gradient_and_laplacian_match_finite_differences():
     assert np.abs(lap - ana).max() < 1e-4 * np.abs(ana).max()
 
 
-@pytest.mark.parametrize("alpha,eta,p_b", [(0.0, 0.0, 0.0), (0.3, 0.0, 0.0), (0.3, 0.5, 0.0),
-                                           (0.3, 0.5, 2.0e4)])
-def test_native_wcsph_equals_brute_force(alpha, eta, p_b):
-    rng = np.random.default_rng(8)
-    n, h = 300, 0.1
-    x = rng.uniform(0.0, 0.5, (n, 2))
+def check_against_brute_force(*, n, side, seed, alpha, eta, p_b=0.0, threads=0):
+    """Random particles in a square of the given side: the native densities,
+    pressures and accelerations against tests/reference.py's; returns the
+    reference pressures."""
+    rng = np.random.default_rng(seed)
+    h = 0.1
+    x = rng.uniform(0.0, side, (n, 2))
     v = rng.normal(0.0, 1.0, (n, 2))
     p = _core.SimParams()
     p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, h, 0.6, 1000.0, 20.0
     p.alpha, p.eta, p.background_pressure = alpha, eta, p_b
-    p.domain_min, p.domain_max = (-1.0, -1.0), (2.0, 2.0)
+    p.domain_min, p.domain_max = (-1.0, -1.0), (side + 1.5, side + 1.5)
+    p.threads = threads
     s = _core.Solver(p, x, v, np.zeros((0, 2, 2)))
     rho, pr, a = wcsph_forces(x, v, h=h, m=0.6, rho0=1000.0, c0=20.0, alpha=alpha, eta=eta,
                               background_pressure=p_b)
-    assert (pr > 0).sum() > 50 and (pr == 0).sum() > 10  # compressed and clamped both occur
-    if p_b > 0:  # and pressures between 0 and p_b (below the reference) too
-        assert ((pr > 0) & (pr < p_b)).sum() > 10
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
     np.testing.assert_allclose(s.pressures[o], pr, rtol=1e-10, atol=1e-9 * pr.max())
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+    return pr
+
+
+@pytest.mark.parametrize("alpha,eta,p_b", [(0.0, 0.0, 0.0), (0.3, 0.0, 0.0), (0.3, 0.5, 0.0),
+                                           (0.3, 0.5, 2.0e4)])
+def test_native_wcsph_equals_brute_force(alpha, eta, p_b):
+    pr = check_against_brute_force(n=300, side=0.5, seed=8, alpha=alpha, eta=eta, p_b=p_b)
+    assert (pr > 0).sum() > 50 and (pr == 0).sum() > 10  # compressed and clamped both occur
+    if p_b > 0:  # and pressures between 0 and p_b (below the reference) too
+        assert ((pr > 0) & (pr < p_b)).sum() > 10
 
 
 @pytest.mark.parametrize("threads", [1, 2])
@@ -69,20 +78,7 @@ def test_native_wcsph_equals_brute_force_across_pair_blocks(threads):
     """Enough particles for several of the blocks in which the pairs are
     evaluated once (at least 1,024 particles a block), so pairs within a block
     and across blocks both occur, on one thread and on two."""
-    rng = np.random.default_rng(9)
-    n, h = 2600, 0.1
-    x = rng.uniform(0.0, 1.3, (n, 2))
-    v = rng.normal(0.0, 1.0, (n, 2))
-    p = _core.SimParams()
-    p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, h, 0.6, 1000.0, 20.0
-    p.alpha, p.eta = 0.3, 0.5
-    p.domain_min, p.domain_max = (-1.0, -1.0), (3.0, 3.0)
-    p.threads = threads
-    s = _core.Solver(p, x, v, np.zeros((0, 2, 2)))
-    rho, pr, a = wcsph_forces(x, v, h=h, m=0.6, rho0=1000.0, c0=20.0, alpha=0.3, eta=0.5)
-    o = np.argsort(s.ids)
-    np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
-    np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+    check_against_brute_force(n=2600, side=1.3, seed=9, alpha=0.3, eta=0.5, threads=threads)
 
 
 def wcsph_scene(name, **fluid):
