@@ -1,6 +1,7 @@
 // Uniform cell grid over the particles' bounding box (cells of size h): a stable
 // counting sort that yields the cell-ordered permutation, cell ranges with a guard
-// entry, and the CSR neighbour list (all j != i with |r_ij| < h) built from them.
+// entry, and the CSR neighbour lists built from them: full (all j != i with
+// |r_ij| < h) or half (each pair within a block of particles once).
 // Along a periodic axis the grid spans the box exactly (cells of at least h)
 // and the neighbour cells wrap around.
 #pragma once
@@ -65,6 +66,59 @@ class CellGrid {
         for (Index q = 0; q < count; ++q) sum.scalar += w((xi - x[found[q]]).squaredNorm());
       }
       visit(i, found, count, sum.total());
+    });
+  }
+
+  // Half lists, for evaluating each pair once over blocks of `block` particles
+  // in storage order (block b holds [b block, (b + 1) block)): row i holds its
+  // neighbours j > i and those in earlier blocks (j < lo, the first particle of
+  // i's block). A pair within a block is stored once, in its first particle's
+  // row; a pair across blocks in both rows. Candidates come from half the
+  // cells: the row below only for earlier blocks, i's own row of cells from
+  // i + 1 on (and before lo), the row above in full. Each thread builds whole
+  // blocks, in order. The weight sums cover every neighbour: acc (n entries,
+  // overwritten) carries the weights of the pairs within a block to their
+  // second particle, and visit(i, sum) runs with i's whole sum, before any
+  // later row of the block, so acc may be the array visit writes.
+  template <class WeightOfR2, class Visit>
+  void neighbours_once(const Vec2* x, Index n, Real h, int threads, Index block, Csr<Index>& out,
+                       Real* acc, WeightOfR2 w, Visit visit) const {
+    const Real h2 = h * h;
+    out.build_blocks(n, threads, block, [&](Index i, Chunk<Index>& list, Index lo, Index hi) {
+      if (i == lo) std::fill(acc + lo, acc + hi, Real(0));
+      const Index c = cell_of_[i];
+      const Index cy = c / nx_, cx = c - cy * nx_;
+      const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx_ - 1);
+      // Four runs of storage, the first two before lo (empty but at a
+      // block's first rows of cells) and the last two after i, whose
+      // weights within the block are carried on to acc.
+      const Index* row_start = cell_start_.data();
+      const Index b0 = cy > 0 ? row_start[(cy - 1) * nx_ + x0] : 0;
+      const Index b1 = cy > 0 ? std::min(row_start[(cy - 1) * nx_ + x1 + 1], lo) : 0;
+      const Index r0 = row_start[cy * nx_ + x0], r1 = row_start[cy * nx_ + x1 + 1];
+      const Index s1 = std::min(r1, lo);
+      const Index a0 = cy + 1 < ny_ ? row_start[(cy + 1) * nx_ + x0] : 0;
+      const Index a1 = cy + 1 < ny_ ? row_start[(cy + 1) * nx_ + x1 + 1] : 0;
+      const Index candidates = std::max<Index>(b1 - b0, 0) + std::max<Index>(s1 - r0, 0) +
+                               (r1 - i - 1) + (a1 - a0);
+      const std::size_t base = list.size();
+      Index* found = list.extend(candidates + kSlack);
+      const Vec2 xi = x[i];
+      Sum sum;
+      Index count = filter_run(x, xi, i, b0, b1, h2, w, found, 0, sum);
+      count = filter_run(x, xi, i, r0, s1, h2, w, found, count, sum);
+      count = filter_run<true>(x, xi, i, i + 1, r1, h2, w, found, count, sum, hi, acc);
+      count = filter_run<true>(x, xi, i, a0, a1, h2, w, found, count, sum, hi, acc);
+      list.resize(base + count);
+      if constexpr (!kVectorFilter) {
+        for (Index q = 0; q < count; ++q) {
+          const Index j = found[q];
+          const Real wj = w((xi - x[j]).squaredNorm());
+          sum.scalar += wj;
+          if (j > i && j < hi) acc[j] += wj;
+        }
+      }
+      visit(i, sum.total() + acc[i]);
     });
   }
 
@@ -135,9 +189,12 @@ class CellGrid {
   // Appends to found[count..] the j in [j0, j1), j != i, with |x_i - x_j|^2 < h2,
   // and (kVectorFilter) adds w(|x_i - x_j|^2) of each to sum; returns the new
   // count. found has room for j1 - j0 + kSlack more entries.
-  template <class WeightOfR2>
+  // With Carry (a run after i), the weight of each hit j < carry_end is also
+  // added to acc[j] (kVectorFilter; the scalar filter leaves the weights to its caller).
+  template <bool Carry = false, class WeightOfR2>
   static Index filter_run(const Vec2* x, const Vec2& xi, Index i, Index j0, Index j1, Real h2,
-                          const WeightOfR2& w, Index* found, Index count, Sum& sum) {
+                          const WeightOfR2& w, Index* found, Index count, Sum& sum,
+                          Index carry_end = 0, Real* acc = nullptr) {
     Index j = j0;
 #if defined(__AVX512F__)
     if constexpr (kVectorFilter) {
@@ -170,7 +227,16 @@ class CellGrid {
         const __m512d d2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
         __mmask8 hit = _mm512_mask_cmp_pd_mask(valid, d2, limit, _CMP_LT_OQ);
         if (static_cast<unsigned>(i - j) < 8u) hit &= static_cast<__mmask8>(~(1u << (i - j)));
-        sum.lanes = _mm512_mask_add_pd(sum.lanes, hit, sum.lanes, w(d2));
+        const __m512d wv = w(d2);
+        sum.lanes = _mm512_mask_add_pd(sum.lanes, hit, sum.lanes, wv);
+        if constexpr (Carry) {
+          // Candidates are consecutive particles: their acc is one vector.
+          const Index room = carry_end - j;  // lanes [0, room) are in i's block
+          const __mmask8 carry =
+              hit & (room >= 8 ? 0xFF : room > 0 ? static_cast<__mmask8>((1u << room) - 1) : 0);
+          _mm512_mask_storeu_pd(acc + j, carry,
+                                _mm512_add_pd(_mm512_maskz_loadu_pd(carry, acc + j), wv));
+        }
         // Compress in a register, then store all eight lanes (found has 8
         // entries of slack beyond the candidates): a compress straight to
         // memory is microcoded on some CPUs (measured 2x slower here).
@@ -183,6 +249,8 @@ class CellGrid {
 #endif
     (void)w;
     (void)sum;
+    (void)carry_end;
+    (void)acc;
     for (; j < j1; ++j) {  // branch-free: write every candidate, keep the hits
       found[count] = j;
       count += static_cast<Index>(((xi - x[j]).squaredNorm() < h2) & (j != i));

@@ -109,6 +109,13 @@ class Csr {
   // emit(i, out) appends particle i's entries to out (a Chunk<T>).
   template <class Emit>
   void build(Index n, int threads, Emit emit) {
+    build_blocks(n, threads, 1, [&](Index i, Chunk<T>& out, Index, Index) { emit(i, out); });
+  }
+
+  // The same over blocks of `block` rows, each built whole by one thread, in
+  // order: emit(i, out, lo, hi) with [lo, hi) the block of row i.
+  template <class Emit>
+  void build_blocks(Index n, int threads, Index block, Emit emit) {
     const int nt_max = resolve_threads(threads);
     start_.resize(static_cast<std::size_t>(n) + 1);
     if (static_cast<int>(chunks_.size()) < nt_max) chunks_.resize(nt_max);
@@ -118,16 +125,20 @@ class Csr {
 #pragma omp parallel num_threads(nt_max) reduction(|| : overflow)
     {
       const int t = thread_rank(), nt = thread_team_size();
-      const Index lo = static_cast<Index>(std::int64_t(n) * t / nt);
-      const Index hi = static_cast<Index>(std::int64_t(n) * (t + 1) / nt);
+      const std::int64_t blocks = (std::int64_t(n) + block - 1) / block;
+      const Index lo = static_cast<Index>(std::min<std::int64_t>(n, blocks * t / nt * block));
+      const Index hi = static_cast<Index>(std::min<std::int64_t>(n, blocks * (t + 1) / nt * block));
       lo_[t] = lo;
       // Work on a buffer whose header lives on this thread's stack: the headers
       // in chunks_ share cache lines, and appending writes them constantly.
       Chunk<T> local = std::move(chunks_[t]);
       local.clear();
-      for (Index i = lo; i < hi; ++i) {
-        start_[i] = static_cast<Index>(local.size());
-        emit(i, local);
+      for (Index b0 = lo; b0 < hi; b0 += block) {
+        const Index b1 = std::min(hi, b0 + block);
+        for (Index i = b0; i < b1; ++i) {
+          start_[i] = static_cast<Index>(local.size());
+          emit(i, local, b0, b1);
+        }
       }
       overflow = local.size() > static_cast<std::size_t>(INT32_MAX);
       chunks_[t] = std::move(local);  // keeps its capacity for the next build

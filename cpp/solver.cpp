@@ -317,7 +317,9 @@ void Solver::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
-  sort_and_find_neighbours<(F & kPeriodic) != 0>(Kernels::Poly6OfR2{&kern_});  // seed eq. 10
+  sort_and_find_neighbours<(F & kPeriodic) != 0,
+                           (F & (kSurfaceTension | kPeriodic)) == 0>(
+      Kernels::Poly6OfR2{&kern_});  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -330,9 +332,12 @@ void Solver::evaluate_impl() {
 
 // Sorts the particles by cell, builds the neighbour lists, and sums the fluid
 // part of each density, rho_i = m (w(0) + sum_j w(r_ij^2)), in the same pass
-// while the neighbours are in cache; w is the method's kernel of r^2.
-template <bool Periodic, class KernelOfR2>
+// while the neighbours are in cache; w is the method's kernel of r^2. With
+// Once, the lists are the half lists of the pair-once loops (each pair within
+// a pair block stored once).
+template <bool Periodic, bool Once, class KernelOfR2>
 void Solver::sort_and_find_neighbours(KernelOfR2 w) {
+  static_assert(!(Periodic && Once), "the periodic seams keep full lists");
   const Index n = size();
   grid_.sort(ps_.x.data(), n, params_.h, threads_, order_, box_);
   ps_.permute_state(order_, n >= CellGrid::kParallelMin ? threads_ : 1);
@@ -340,6 +345,7 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
+  half_lists_ = Once;
   if constexpr (Periodic) {
     grid_.neighbours_periodic(x, n, params_.h, threads_, box_, nbrs_,
                               [&](Index i, const Index* nbr, Index count) {
@@ -349,6 +355,10 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
                                   sum += w(box_.delta(xi, x[nbr[q]]).squaredNorm());
                                 rho[i] = m * sum;
                               });
+  } else if constexpr (Once) {
+    // rho[] carries the weights within a block until each row is done.
+    grid_.neighbours_once(x, n, params_.h, threads_, pair_block(), nbrs_, rho, w,
+                          [&](Index i, Real sum) { rho[i] = m * (self + sum); });
   } else {
     // The sum over the neighbours is taken while the grid filters them.
     grid_.neighbours(x, n, params_.h, threads_, nbrs_, w,
@@ -357,8 +367,19 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   mark(kNeighbours);
 }
 
-template void Solver::sort_and_find_neighbours<false>(Wendland::OfR2);
-template void Solver::sort_and_find_neighbours<true>(Wendland::OfR2);
+template void Solver::sort_and_find_neighbours<false, false>(Wendland::OfR2);
+template void Solver::sort_and_find_neighbours<false, true>(Wendland::OfR2);
+template void Solver::sort_and_find_neighbours<true, false>(Wendland::OfR2);
+
+std::int64_t Solver::neighbour_pairs() const {
+  if (!half_lists_) return nbrs_.total();
+  // Each pair is in the row of its first particle (and, across blocks, also
+  // in its second's): count each once, and both directions.
+  std::int64_t pairs = 0;
+  for (Index i = 0; i < size(); ++i)
+    for (const Index j : nbrs_.row(i)) pairs += j > i;
+  return 2 * pairs;
+}
 
 // Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15).
 template <unsigned F>
@@ -388,7 +409,8 @@ void Solver::compute_density() {
 // evaluated once: its square root and division serve both particles. The
 // particles are cut into blocks whose size depends only on n; within a block,
 // in storage order, a pair's terms go to both particles, and a pair that
-// crosses blocks is evaluated from each side. So every sum is taken in one
+// crosses blocks is evaluated from each side (the half lists of
+// CellGrid::neighbours_once hold exactly these). So every sum is taken in one
 // order whatever the thread count. Leaves the force densities in a[].
 template <bool Viscosity>
 void Solver::seed_pairs_once() {
@@ -399,8 +421,7 @@ void Solver::seed_pairs_once() {
   const Real* inv_rho = inv_rho_.data();
   Vec2* a = ps_.a.data();
   const Real half_m = Real(0.5) * params_.mass, eta_m = params_.eta * params_.mass;
-  const Index block = std::max<Index>(kPairBlockMin, (n + kPairBlocks - 1) / kPairBlocks);
-  const Index blocks = (n + block - 1) / block;
+  const Index block = pair_block(), blocks = (n + block - 1) / block;
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
@@ -411,8 +432,9 @@ void Solver::seed_pairs_once() {
       [[maybe_unused]] const Vec2 vi = v[i];
       Vec2 fi = a[i];  // from the pairs with earlier particles of the block
       for (const Index j : nbrs_.row(i)) {
-        const bool mine = j >= lo && j < hi;
-        if (mine && j < i) continue;  // evaluated in j's row
+        // The row holds j > i and the j of earlier blocks; a pair across
+        // blocks is in both rows, and each side takes its own share.
+        const bool mine = j > i && j < hi;
         const Vec2 r = xi - x[j];
         const Real rl = r.norm(), d = kern_.h - rl;
         // -m (p_i + p_j) / (2 rho_j) grad W_spiky(r) for i; for j the same

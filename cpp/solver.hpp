@@ -99,9 +99,7 @@ class Solver {
                             keep_.capacity() + bad_.capacity()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
-  std::int64_t neighbour_pairs() const {
-    return nbrs_.total();
-  }
+  std::int64_t neighbour_pairs() const;
 
  private:
   // dt > 0: a fixed step; otherwise the adaptive one, at most dt_cap when > 0.
@@ -125,7 +123,8 @@ class Solver {
   template <bool Viscosity> void seed_pairs_once();
   template <bool Viscosity> void wcsph_pairs_once();
   template <unsigned F> void integrate(Real dt, Real kick);
-  template <bool Periodic, class KernelOfR2> void sort_and_find_neighbours(KernelOfR2 w);
+  template <bool Periodic, bool Once, class KernelOfR2>
+  void sort_and_find_neighbours(KernelOfR2 w);
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
   template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
     if constexpr ((F & kPeriodic) != 0) {
@@ -175,8 +174,12 @@ class Solver {
   std::chrono::steady_clock::time_point mark_;
 
   static constexpr std::size_t kRetryLog = 100;
-  // seed_pairs_once's blocks: n / kPairBlocks particles, at least kPairBlockMin.
+  // The pair-once loops' blocks: n / kPairBlocks particles, at least kPairBlockMin.
   static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024;
+  Index pair_block() const {
+    return std::max<Index>(kPairBlockMin, (size() + kPairBlocks - 1) / kPairBlocks);
+  }
+  bool half_lists_ = false;  // nbrs_ holds neighbours_once's half lists
   Real energy_budget_ = 0;
   std::int64_t retried_steps_ = 0;
   std::vector<std::string> retry_log_;

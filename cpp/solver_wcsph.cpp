@@ -90,8 +90,7 @@ void Solver::wcsph_pairs_once() {
   const Real eps2 = Real(0.01) * hs * hs;
   const Real av = P.alpha * P.c0 * hs;
   [[maybe_unused]] const Real eta2 = 2 * P.eta;
-  const Index block = std::max<Index>(kPairBlockMin, (n + kPairBlocks - 1) / kPairBlocks);
-  const Index blocks = (n + block - 1) / block;
+  const Index block = pair_block(), blocks = (n + block - 1) / block;
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
@@ -101,8 +100,9 @@ void Solver::wcsph_pairs_once() {
       const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
       Vec2 fi = a[i];  // from the pairs with earlier particles of the block
       for (const Index j : nbrs_.row(i)) {
-        const bool mine = j >= lo && j < hi;
-        if (mine && j < i) continue;  // evaluated in j's row
+        // The row holds j > i and the j of earlier blocks; a pair across
+        // blocks is in both rows, and each side takes its own share.
+        const bool mine = j > i && j < hi;
         const Vec2 r = xi - x[j];
         const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
         const Vec2 gw = W.gradient(r, rl);
@@ -127,7 +127,8 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours<(F & kPeriodic) != 0>(Wendland::OfR2{&W});  // summation density, self included
+  sort_and_find_neighbours<(F & kPeriodic) != 0, (F & (kSurfaceTension | kPeriodic)) == 0>(
+      Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
     // side; beyond a segment's free end the reflection alone acts.
