@@ -109,13 +109,34 @@ class Csr {
   // emit(i, out) appends particle i's entries to out (a Chunk<T>).
   template <class Emit>
   void build(Index n, int threads, Emit emit) {
-    build_blocks(n, threads, 1, [&](Index i, Chunk<T>& out, Index, Index) { emit(i, out); });
+    build_rows(n, threads, 1, [&](Index lo, Index hi, Chunk<T>& local) {
+      for (Index i = lo; i < hi; ++i) {
+        start_[i] = static_cast<Index>(local.size());
+        emit(i, local);
+      }
+    });
   }
 
   // The same over blocks of `block` rows, each built whole by one thread, in
   // order: emit(i, out, lo, hi) with [lo, hi) the block of row i.
   template <class Emit>
   void build_blocks(Index n, int threads, Index block, Emit emit) {
+    build_rows(n, threads, block, [&](Index lo, Index hi, Chunk<T>& local) {
+      for (Index b0 = lo; b0 < hi; b0 += block) {
+        const Index b1 = std::min(hi, b0 + block);
+        for (Index i = b0; i < b1; ++i) {
+          start_[i] = static_cast<Index>(local.size());
+          emit(i, local, b0, b1);
+        }
+      }
+    });
+  }
+
+ private:
+  // rows(lo, hi, out) fills the rows [lo, hi) of one thread, whose first row is
+  // a multiple of align.
+  template <class Rows>
+  void build_rows(Index n, int threads, Index align, Rows rows) {
     const int nt_max = resolve_threads(threads);
     start_.resize(static_cast<std::size_t>(n) + 1);
     if (static_cast<int>(chunks_.size()) < nt_max) chunks_.resize(nt_max);
@@ -125,21 +146,15 @@ class Csr {
 #pragma omp parallel num_threads(nt_max) reduction(|| : overflow)
     {
       const int t = thread_rank(), nt = thread_team_size();
-      const std::int64_t blocks = (std::int64_t(n) + block - 1) / block;
-      const Index lo = static_cast<Index>(std::min<std::int64_t>(n, blocks * t / nt * block));
-      const Index hi = static_cast<Index>(std::min<std::int64_t>(n, blocks * (t + 1) / nt * block));
+      const std::int64_t blocks = (std::int64_t(n) + align - 1) / align;
+      const Index lo = static_cast<Index>(std::min<std::int64_t>(n, blocks * t / nt * align));
+      const Index hi = static_cast<Index>(std::min<std::int64_t>(n, blocks * (t + 1) / nt * align));
       lo_[t] = lo;
       // Work on a buffer whose header lives on this thread's stack: the headers
       // in chunks_ share cache lines, and appending writes them constantly.
       Chunk<T> local = std::move(chunks_[t]);
       local.clear();
-      for (Index b0 = lo; b0 < hi; b0 += block) {
-        const Index b1 = std::min(hi, b0 + block);
-        for (Index i = b0; i < b1; ++i) {
-          start_[i] = static_cast<Index>(local.size());
-          emit(i, local, b0, b1);
-        }
-      }
+      rows(lo, hi, local);
       overflow = local.size() > static_cast<std::size_t>(INT32_MAX);
       chunks_[t] = std::move(local);  // keeps its capacity for the next build
     }
@@ -149,7 +164,6 @@ class Csr {
     if (overflow) throw std::length_error("over 2^31 neighbour entries in one thread's block");
   }
 
- private:
   std::vector<Index> start_;  // offset of row i in its block's chunk
   std::vector<Index> lo_;     // first row of each block, and n
   std::vector<Chunk<T>> chunks_;
