@@ -552,7 +552,8 @@ void Solver::integrate(Real dt, Real kick) {
     Vec2 vi = v[i] + kick * a[i];
     Vec2 xi = x_old + dt * vi;
     if constexpr ((F & kWalls) != 0)
-      if (xi.allFinite() && vi.allFinite()) walls_.collide(x_old, xi, vi, e);
+      if (xi.allFinite() && vi.allFinite() && walls_.may_hit(x_old, xi))
+        walls_.collide(x_old, xi, vi, e);
     if constexpr ((F & kPeriodic) != 0) xi = box_.wrap(xi);
     const Real v2 = vi.squaredNorm();
     // Written so that NaN fails every comparison and so trips.

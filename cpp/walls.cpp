@@ -107,12 +107,6 @@ WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(se
   for (const auto& l : lists) cell_items_.insert(cell_items_.end(), l.begin(), l.end());
 }
 
-Index WallSet::cell_of(const Vec2& p) const {
-  const Real fx = (p.x() - origin_.x()) * inv_cell_, fy = (p.y() - origin_.y()) * inv_cell_;
-  if (!(fx >= 0 && fy >= 0 && fx < nx_ && fy < ny_)) return -1;
-  return static_cast<Index>(fy) * nx_ + static_cast<Index>(fx);
-}
-
 // A ghost clamped to an end point shared with segment `other` is counted once:
 // not at all if p projects into the interior of `other` (that segment supplies
 // the ghost), otherwise by the lower-numbered of the two segments.
