@@ -11,6 +11,10 @@ namespace sphfluid {
 
 void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
                     std::vector<Index>& order, const PeriodicBox& box) {
+  // Cells a hair larger than asked: the rounding of two cell coordinates then
+  // cannot put two points closer than cell_size two cells apart (with up to
+  // ~1e7 cells along an axis).
+  cell_size *= 1 + 1e-8;
   const int nt = n >= kParallelMin ? threads : 1;
   Real lx = 0, ly = 0, hx = 0, hy = 0;
   if (n > 0) {

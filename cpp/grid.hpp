@@ -27,7 +27,8 @@ class CellGrid {
   // took 3x longer than 1).
   static constexpr Index kParallelMin = 50'000;
 
-  // Along box's periodic axes the positions must lie in the box.
+  // Along box's periodic axes the positions must lie in the box. The cells are
+  // made 1e-8 larger than cell_size (see grid.cpp).
   void sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
             const PeriodicBox& box = PeriodicBox());
 

@@ -99,6 +99,8 @@ class Csr {
     for (const Chunk<T>& c : chunks_) sum += c.bytes();
     return sum;
   }
+  // Rows of the last build.
+  Index rows() const { return start_.empty() ? 0 : static_cast<Index>(start_.size() - 1); }
   // Entries in all rows.
   std::int64_t total() const {
     std::int64_t sum = 0;

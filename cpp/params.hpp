@@ -17,6 +17,12 @@ enum Feature : unsigned {
   kPeriodic = 1u << 3,        // the domain wraps along x and/or y
 };
 constexpr unsigned kNumFeatureSets = 16;
+// Whether a step with these features evaluates each fluid pair once, from half
+// neighbour lists: not with surface tension (its colour field is summed per
+// particle) or periodic seams (minimum images), which keep full lists.
+constexpr bool pairs_once(unsigned features) {
+  return (features & (kSurfaceTension | kPeriodic)) == 0;
+}
 
 enum class Method : int { kSeed = 0, kWcsph = 1 };
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <sstream>
 
 namespace sphfluid {
@@ -318,7 +319,7 @@ template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   sort_and_find_neighbours<(F & kPeriodic) != 0,
-                           (F & (kSurfaceTension | kPeriodic)) == 0>(
+                           pairs_once(F)>(
       Kernels::Poly6OfR2{&kern_});  // seed eq. 10
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
@@ -375,8 +376,9 @@ std::int64_t Solver::neighbour_pairs() const {
   if (!half_lists_) return nbrs_.total();
   // Each pair is in the row of its first particle (and, across blocks, also
   // in its second's): count each once, and both directions.
+  // Over the rows of that evaluation: particles may have left the domain since.
   std::int64_t pairs = 0;
-  for (Index i = 0; i < size(); ++i)
+  for (Index i = 0; i < nbrs_.rows(); ++i)
     for (const Index j : nbrs_.row(i)) pairs += j > i;
   return 2 * pairs;
 }
@@ -422,6 +424,8 @@ void Solver::seed_pairs_once() {
   Vec2* a = ps_.a.data();
   const Real half_m = Real(0.5) * params_.mass, eta_m = params_.eta * params_.mass;
   const Index block = pair_block(), blocks = (n + block - 1) / block;
+  if (!half_lists_ || nbrs_.rows() != n)
+    throw std::logic_error("the pair-once loop needs this evaluation's half lists");
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
@@ -478,7 +482,7 @@ void Solver::compute_accelerations() {
   const Vec2 g = params_.gravity;
   // Without tension (and periodic seams), each fluid pair once: a[] holds the
   // pair sums when the loop below starts.
-  constexpr bool kPairsOnce = (F & (kSurfaceTension | kPeriodic)) == 0;
+  constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {

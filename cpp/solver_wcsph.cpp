@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "solver.hpp"
 #include "wendland.hpp"
@@ -91,6 +92,8 @@ void Solver::wcsph_pairs_once() {
   const Real av = P.alpha * P.c0 * hs;
   [[maybe_unused]] const Real eta2 = 2 * P.eta;
   const Index block = pair_block(), blocks = (n + block - 1) / block;
+  if (!half_lists_ || nbrs_.rows() != n)
+    throw std::logic_error("the pair-once loop needs this evaluation's half lists");
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
@@ -127,7 +130,7 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours<(F & kPeriodic) != 0, (F & (kSurfaceTension | kPeriodic)) == 0>(
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
       Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
@@ -180,7 +183,7 @@ void Solver::wcsph_evaluate_impl() {
   const Vec2 g = P.gravity;
   // Without tension (and periodic seams), each fluid pair once: a[] holds the
   // pair sums when the loop below starts.
-  constexpr bool kPairsOnce = (F & (kSurfaceTension | kPeriodic)) == 0;
+  constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {

@@ -8,9 +8,10 @@ from sphfluid import _core
 
 
 def make_solver(x, v=None, *, h=0.1, walls=None, eta=0.0, sigma=0.0, threads=0,
-                lo=(-1.0, -1.0), hi=(2.0, 2.0)):
+                lo=(-1.0, -1.0), hi=(2.0, 2.0), guard=True):
     p = _core.SimParams()
     p.h, p.mass, p.rho0, p.k, p.eta, p.sigma = h, 0.5, 100.0, 30.0, eta, sigma
+    p.guard = guard
     p.domain_min, p.domain_max = lo, hi
     p.threads = threads
     v = np.zeros_like(x) if v is None else v
@@ -38,6 +39,31 @@ def test_pairs_at_cell_edges_and_exactly_h_apart():
     x = np.c_[X.ravel(), Y.ravel()]
     s = make_solver(x, h=h)
     assert s.neighbour_pairs == brute_force_pairs(x, h)
+
+
+def test_pairs_just_under_h_apart_in_cells_two_apart_by_rounding():
+    # Cell coordinates 90.99999999999999 and 92.0 (h = 0.02, the grid starting
+    # at x = -1): the cells are computed as two apart though the pair is closer
+    # than h; cells a hair larger than h keep such a pair one cell apart.
+    x = np.array([[-1.0, 0.0], [0.8199999999999998, 0.0], [0.8399999999999997, 0.0]])
+    assert 0.8399999999999997 - 0.8199999999999998 < 0.02
+    s = make_solver(x, h=0.02, lo=(-1.5, -1.0), hi=(1.5, 1.0))
+    assert s.neighbour_pairs == brute_force_pairs(x, 0.02) == 2
+
+
+def test_pair_count_spans_blocks_and_outlives_removal():
+    # Several pair blocks (at least 1,024 particles each); then a step in which
+    # particles leave the domain: the count stays that of the evaluation.
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.0, 1.5, (3000, 2))
+    v = np.zeros_like(x)
+    v[:200, 0] = 400.0  # out of the domain in one step
+    s = make_solver(x, v, lo=(-0.5, -0.5), hi=(2.0, 2.0), guard=False)  # a crowd, not a fluid
+    assert s.neighbour_pairs == brute_force_pairs(x, 0.1)
+    before = s.neighbour_pairs
+    s.step(0.01)
+    assert s.n_particles < len(x)
+    assert s.neighbour_pairs == before
 
 
 def test_pairs_at_domain_edges():
