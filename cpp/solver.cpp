@@ -318,9 +318,8 @@ void Solver::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
-  sort_and_find_neighbours<(F & kPeriodic) != 0,
-                           pairs_once(F)>(
-      Kernels::Poly6OfR2{&kern_});  // seed eq. 10
+  // seed eq. 10
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Kernels::Poly6OfR2{&kern_});
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -375,8 +374,8 @@ template void Solver::sort_and_find_neighbours<true, false>(Wendland::OfR2);
 std::int64_t Solver::neighbour_pairs() const {
   if (!half_lists_) return nbrs_.total();
   // Each pair is in the row of its first particle (and, across blocks, also
-  // in its second's): count each once, and both directions.
-  // Over the rows of that evaluation: particles may have left the domain since.
+  // in its second's): count each once, and both directions, over the rows of
+  // that evaluation (particles may have left the domain since).
   std::int64_t pairs = 0;
   for (Index i = 0; i < nbrs_.rows(); ++i)
     for (const Index j : nbrs_.row(i)) pairs += j > i;
