@@ -17,14 +17,16 @@ enum Feature : unsigned {
   kPeriodic = 1u << 3,        // the domain wraps along x and/or y
 };
 constexpr unsigned kNumFeatureSets = 16;
-// Whether a step with these features evaluates each fluid pair once, from half
-// neighbour lists: not with surface tension (its colour field is summed per
-// particle) or periodic seams (minimum images), which keep full lists.
-constexpr bool pairs_once(unsigned features) {
-  return (features & (kSurfaceTension | kPeriodic)) == 0;
-}
 
 enum class Method : int { kSeed = 0, kWcsph = 1 };
+
+// Whether a step of this method with these features evaluates each fluid pair
+// once, from half neighbour lists: not across periodic seams (minimum images),
+// nor wcsph with surface tension; those keep full lists and the gather loop.
+constexpr bool pairs_once(unsigned features, Method method) {
+  return (features & kPeriodic) == 0 &&
+         (method == Method::kSeed || (features & kSurfaceTension) == 0);
+}
 
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 

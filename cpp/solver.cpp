@@ -319,7 +319,8 @@ template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   // seed eq. 10
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Kernels::Poly6OfR2{&kern_});
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F, Method::kSeed)>(
+      Kernels::Poly6OfR2{&kern_});
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -406,14 +407,16 @@ void Solver::compute_density() {
   }
 }
 
-// The fluid pairs of compute_accelerations (pressure, viscosity) with each pair
-// evaluated once: its square root and division serve both particles. The
+// The fluid pairs of compute_accelerations (pressure, viscosity, and with
+// tension the colour field's sums) with each pair evaluated once: its square
+// root and division serve both particles. The
 // particles are cut into blocks whose size depends only on n; within a block,
 // in storage order, a pair's terms go to both particles, and a pair that
 // crosses blocks is evaluated from each side (the half lists of
 // CellGrid::neighbours_once hold exactly these). So every sum is taken in one
-// order whatever the thread count. Leaves the force densities in a[].
-template <bool Viscosity>
+// order whatever the thread count. Leaves the force densities in a[] (and
+// n_i, lap c_i in normal_, lap_c_).
+template <bool Viscosity, bool Tension>
 void Solver::seed_pairs_once() {
   const Index n = size();
   const Vec2* x = ps_.x.data();
@@ -421,19 +424,39 @@ void Solver::seed_pairs_once() {
   const Real* p = ps_.p.data();
   const Real* inv_rho = inv_rho_.data();
   Vec2* a = ps_.a.data();
-  const Real half_m = Real(0.5) * params_.mass, eta_m = params_.eta * params_.mass;
+  const Real m = params_.mass, half_m = Real(0.5) * m, eta_m = params_.eta * m;
   const Index block = pair_block(), blocks = (n + block - 1) / block;
   if (!half_lists_ || nbrs_.rows() != n)
     throw std::logic_error("the pair-once loop needs this evaluation's half lists");
+  // The colour field's sums (eqs. 18-19), pairwise like the forces.
+  [[maybe_unused]] Vec2* normal = nullptr;
+  [[maybe_unused]] Real* lap_c = nullptr;
+  if constexpr (Tension) {
+    normal_.resize(n);
+    lap_c_.resize(n);
+    normal = normal_.data();
+    lap_c = lap_c_.data();
+  }
+  [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
     std::fill(a + lo, a + hi, Vec2::Zero());
+    if constexpr (Tension) {
+      std::fill(normal + lo, normal + hi, Vec2::Zero());
+      for (Index i = lo; i < hi; ++i) lap_c[i] = m * inv_rho[i] * lap_self;
+    }
     for (Index i = lo; i < hi; ++i) {
       const Vec2 xi = x[i];
       const Real pi = p[i], ir_i = inv_rho[i];
       [[maybe_unused]] const Vec2 vi = v[i];
       Vec2 fi = a[i];  // from the pairs with earlier particles of the block
+      [[maybe_unused]] Vec2 ni = Vec2::Zero();
+      [[maybe_unused]] Real li = 0;
+      if constexpr (Tension) {
+        ni = normal[i];
+        li = lap_c[i];
+      }
       for (const Index j : nbrs_.row(i)) {
         // The row holds j > i and the j of earlier blocks; a pair across
         // blocks is in both rows, and each side takes its own share.
@@ -454,8 +477,23 @@ void Solver::seed_pairs_once() {
           fj -= (lap * ir_i) * dv;
         }
         if (mine) a[j] += fj;
+        if constexpr (Tension) {  // m / rho_j grad W and m / rho_j lap W (eqs. 18-19)
+          const Real r2 = rl * rl;
+          const Vec2 gw = kern_.grad_poly6(r, r2);
+          const Real lw = kern_.lap_poly6(r2);
+          ni += (m * ir_j) * gw;
+          li += (m * ir_j) * lw;
+          if (mine) {
+            normal[j] -= (m * ir_i) * gw;
+            lap_c[j] += (m * ir_i) * lw;
+          }
+        }
       }
       a[i] = fi;
+      if constexpr (Tension) {
+        normal[i] = ni;
+        lap_c[i] = li;
+      }
     }
   }
 }
@@ -479,10 +517,10 @@ void Solver::compute_accelerations() {
   [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
   const Vec2 g = params_.gravity;
-  // Without tension (and periodic seams), each fluid pair once: a[] holds the
-  // pair sums when the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F);
-  if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0>();
+  // Without periodic seams, each fluid pair once: a[] (and, with tension, the
+  // colour field's sums) hold the pair sums when the loop below starts.
+  constexpr bool kPairsOnce = pairs_once(F, Method::kSeed);
+  if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
@@ -492,7 +530,14 @@ void Solver::compute_accelerations() {
     [[maybe_unused]] Vec2 vi = v[i];
     [[maybe_unused]] Vec2 normal = Vec2::Zero();  // n_i = grad c_i   (eq. 18)
     [[maybe_unused]] Real lap_c = 0;              // lap c_i
-    if constexpr ((F & kSurfaceTension) != 0) lap_c = m / rhoi * lap_self;
+    if constexpr ((F & kSurfaceTension) != 0) {
+      if constexpr (kPairsOnce) {
+        normal = normal_[i];
+        lap_c = lap_c_[i];
+      } else {
+        lap_c = m / rhoi * lap_self;
+      }
+    }
     if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm();

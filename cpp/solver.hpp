@@ -95,8 +95,9 @@ class Solver {
             {"sort", grid_.bytes() + order_.capacity() * sizeof(Index)},
             {"neighbours", nbrs_.bytes()},
             {"wall ghosts", ghosts_.bytes()},
-            {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity()) * sizeof(Real) +
-                            keep_.capacity() + bad_.capacity()}};
+            {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
+                                sizeof(Real) +
+                            normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
   std::int64_t neighbour_pairs() const;
@@ -120,7 +121,7 @@ class Solver {
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();
-  template <bool Viscosity> void seed_pairs_once();
+  template <bool Viscosity, bool Tension> void seed_pairs_once();
   template <bool Viscosity> void wcsph_pairs_once();
   template <unsigned F> void integrate(Real dt, Real kick);
   template <bool Periodic, bool Once, class KernelOfR2>
@@ -161,6 +162,8 @@ class Solver {
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
   std::vector<Real> p_over_rho2_; // wcsph: p / rho^2
+  std::vector<Vec2> normal_;      // with tension, pairs once: the colour field's gradient
+  std::vector<Real> lap_c_;       // ... and its Laplacian, per particle
   std::vector<char> keep_;    // scratch for domain removal
   std::vector<char> bad_;     // per thread: a non-finite value was produced
 

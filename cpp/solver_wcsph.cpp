@@ -130,7 +130,7 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F, Method::kWcsph)>(
       Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
@@ -183,7 +183,7 @@ void Solver::wcsph_evaluate_impl() {
   const Vec2 g = P.gravity;
   // Without tension (and periodic seams), each fluid pair once: a[] holds the
   // pair sums when the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F);
+  constexpr bool kPairsOnce = pairs_once(F, Method::kWcsph);
   if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {

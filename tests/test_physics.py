@@ -49,18 +49,22 @@ def test_native_equals_brute_force(eta, sigma, with_walls):
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_native_equals_brute_force_across_pair_blocks(threads):
+@pytest.mark.parametrize("sigma", [0.0, 0.6])
+def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
     """Enough particles for several of the blocks in which the seed's pairs are
     evaluated once (at least 1,024 particles a block), so pairs within a block
-    and pairs across blocks both occur, on one thread and on two."""
+    and pairs across blocks both occur, on one thread and on two, with and
+    without the colour field's pairwise sums (surface tension)."""
     rng = np.random.default_rng(7)
     n = 2600
     x = rng.uniform(0.02, 1.87, (n, 2))
     v = rng.normal(0.0, 1.0, (n, 2))
     walls = np.array([[[0.0, 0.0], [1.9, 0.0]], [[0.0, 1.9], [0.0, 0.0]]])
-    s = solver(x, v, walls, eta=0.4, threads=threads, domain=((-1.0, -1.0), (3.0, 3.0)))
+    s = solver(x, v, walls, eta=0.4, sigma=sigma, threads=threads,
+               domain=((-1.0, -1.0), (3.0, 3.0)))
     ghosts = [_core.walls.ghosts(walls, xi, 0.1) for xi in x]
-    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4, ghosts=ghosts)
+    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4, sigma=sigma,
+                            ghosts=ghosts)
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
