@@ -462,7 +462,7 @@ void Solver::seed_pairs_once() {
         // blocks is in both rows, and each side takes its own share.
         const bool mine = j > i && j < hi;
         const Vec2 r = xi - x[j];
-        const Real rl = r.norm(), d = kern_.h - rl;
+        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2), d = kern_.h - rl;
         // -m (p_i + p_j) / (2 rho_j) grad W_spiky(r) for i; for j the same
         // with 1 / rho_i and r_ji = -r (seed eq. 14)
         const Real grad = (d > 0 && rl > 0) ? kern_.spiky_grad * d * d / rl : Real(0);
@@ -478,7 +478,6 @@ void Solver::seed_pairs_once() {
         }
         if (mine) a[j] += fj;
         if constexpr (Tension) {  // m / rho_j grad W and m / rho_j lap W (eqs. 18-19)
-          const Real r2 = rl * rl;
           const Vec2 gw = kern_.grad_poly6(r, r2);
           const Real lw = kern_.lap_poly6(r2);
           ni += (m * ir_j) * gw;
