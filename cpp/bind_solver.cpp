@@ -120,6 +120,9 @@ void bind_solver(py::module_& m) {
       .def_property_readonly("last_dt", &Solver::last_dt, "time step of the last step, s")
       .def_property_readonly("energy_budget", &Solver::energy_budget,
                              "energy the scene can supply, J per m of depth (guard)")
+      .def_property_readonly("energy_removed", &Solver::energy_removed,
+                             "kinetic energy carried out of the domain by removed particles, "
+                             "J per m of depth (counted by the guard)")
       .def_property_readonly("retried_steps", &Solver::retried_steps,
                              "steps retried with a halved time step")
       .def_property_readonly("retry_log", &Solver::retry_log,

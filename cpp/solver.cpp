@@ -194,6 +194,7 @@ void Solver::compute_energy_budget() {
   const Real c = P.sound_speed();
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
   energy_budget_ = kinetic + release + elastic + surface + floor;
+  energy_removed_ = 0;
 }
 
 void Solver::step(Real dt, int n) {
@@ -610,7 +611,8 @@ void Solver::integrate(Real dt, Real kick) {
     v_new[i] = vi;
   }
   const Real kinetic = 0.5 * params_.mass * v2_sum;
-  if (bad || (guard && !(kinetic <= params_.guard_energy_factor * energy_budget_)))
+  if (bad ||
+      (guard && !(kinetic + energy_removed_ <= params_.guard_energy_factor * energy_budget_)))
     trip(dt, x_new, v_new, rho, kinetic);
   ps_.x.commit_write();
   ps_.v.commit_write();
@@ -664,11 +666,16 @@ void Solver::trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho
   Index fastest = 0;
   for (Index i = 1; i < n; ++i)
     if (v_new[i].squaredNorm() > v_new[fastest].squaredNorm()) fastest = i;
+  const std::string carried =
+      energy_removed_ > 0 ? " plus " + fmt(energy_removed_) + " J/m carried out of the domain by " +
+                                "the particles removed"
+                          : std::string();
   throw InstabilityError(
       where + std::to_string(n > 0 ? ps_.id[fastest] : -1) + " is the fastest at " +
       fmt(n > 0 ? v_new[fastest].norm() : 0) + " m/s: the kinetic energy " + fmt(kinetic) +
-      " J/m exceeds " + fmt(params_.guard_energy_factor) + " times all the energy the scene " +
-      "can supply (" + fmt(energy_budget_) + " J/m) [check: energy]");
+      " J/m" + carried + " exceeds " + fmt(params_.guard_energy_factor) +
+      " times all the energy the scene can supply (" + fmt(energy_budget_) +
+      " J/m) [check: energy]");
 }
 
 void Solver::remove_outside_domain() {
@@ -684,11 +691,14 @@ void Solver::remove_outside_domain() {
   if (first_out == n) return;
   keep_.assign(n, 1);
   Index removed = 0;
+  Real v2_out = 0;
   for (Index i = first_out; i < n; ++i)
     if (!inside(x[i])) {
       keep_[i] = 0;
       ++removed;
+      v2_out += ps_.v[i].squaredNorm();
     }
+  energy_removed_ += Real(0.5) * params_.mass * v2_out;
   ps_.compact(keep_);
   removed_ += removed;
 }

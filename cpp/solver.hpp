@@ -63,6 +63,10 @@ class Solver {
   // gravity can release within the domain + the EOS's elastic energy + a
   // surface-energy bound; set when the particles are set.
   Real energy_budget() const { return energy_budget_; }
+  // Kinetic energy (J per m of depth) carried out of the domain by the particles
+  // removed since the budget was set: the guard's energy check counts it, so a
+  // blow-up that throws particles out of the domain still trips it.
+  Real energy_removed() const { return energy_removed_; }
   std::int64_t retried_steps() const { return retried_steps_; }
   // Messages of the most recent retries (at most kRetryLog), oldest first.
   const std::vector<std::string>& retry_log() const { return retry_log_; }
@@ -184,6 +188,7 @@ class Solver {
   }
   bool half_lists_ = false;  // nbrs_ holds neighbours_once's half lists
   Real energy_budget_ = 0;
+  Real energy_removed_ = 0;
   std::int64_t retried_steps_ = 0;
   std::vector<std::string> retry_log_;
 

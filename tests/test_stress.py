@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import copy
+import json
 
 from conftest import BASE_SCENE
-from sphfluid.stress import CAUGHT, SILENT, STABLE, run_one, tank_scene
+from sphfluid.stress import CAUGHT, SILENT, STABLE, bundled_scenes, run_one, tank_scene
 
 
 def test_a_calm_run_is_stable():
@@ -33,3 +34,16 @@ def test_particles_that_leave_without_a_trip_are_a_silent_failure():
     d["duration"] = 0.5
     o = run_one(d, max_wall=60)
     assert o.status == SILENT and o.lost > 0
+
+
+def test_bundled_scenes_run_as_shipped_and_with_each_method(tmp_path):
+    d = copy.deepcopy(BASE_SCENE)
+    d["solver"] = {"method": "seed", "time_step": 0.001}
+    (tmp_path / "a.json").write_text(json.dumps(d))
+    runs = bundled_scenes(tmp_path)
+    assert list(runs) == [("a.json", "seed, dt as shipped (0.001)"), ("a.json", "seed, auto"),
+                          ("a.json", "wcsph, auto")]
+    assert runs[("a.json", "seed, dt as shipped (0.001)")]["solver"]["time_step"] == 0.001
+    for how, method in (("seed, auto", "seed"), ("wcsph, auto", "wcsph")):
+        assert runs[("a.json", how)]["solver"] == {"method": method, "time_step": "auto"}
+        assert run_one(runs[("a.json", how)] | {"duration": 0.02}, max_wall=60).status == STABLE

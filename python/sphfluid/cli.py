@@ -113,13 +113,17 @@ def _parser() -> argparse.ArgumentParser:
                         "when installed (docs/peers.md)")
     s = sub.add_parser("stress", help="stability matrix and violent scenes",
                        description="Sweep k x dt for the seed method on the dam break and the "
-                                   "splash (fixed and adaptive dt), then violent scenes; report "
+                                   "splash (fixed and adaptive dt), then violent scenes (and, with "
+                                   "--full, the bundled scenes with each method); report "
                                    "stable / caught by the guard / silent failures.")
     mode = s.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true", help="small sweep (default, minutes)")
     mode.add_argument("--full", action="store_true", help="the whole matrix (tens of minutes)")
     s.add_argument("--out", type=Path, default=Path("."), help="folder for the heat-map PNGs")
     s.add_argument("--write", type=Path, help="write the table into this Markdown file")
+    s.add_argument("--scenes", type=Path, default=Path("scenes"),
+                   help="with --full, also run every scene in this folder as shipped and with "
+                        "each method (default: ./scenes, skipped when absent)")
 
     from .validation.cases import CASES, METHODS
 

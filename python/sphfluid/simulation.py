@@ -340,6 +340,8 @@ class Simulation:
             "neighbour_pairs": self._solver.neighbour_pairs,
             "retried_steps": self.retried_steps,
             "energy_budget": self._solver.energy_budget,  # J per m depth, for the guard
+            # J per m depth carried out of the domain by removed particles (the guard counts it)
+            "energy_removed": self._solver.energy_removed,
         }
 
 
