@@ -112,10 +112,11 @@ void Solver::wcsph_pairs_once() {
         const Vec2 vij = vi - v[j];
         Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
         const Real vr = vij.dot(r);
-        if (vr < 0) coef -= av * vr / (r2 + eps2) * 2 / (rhoi + rho[j]);  // + Pi_ij
+        const Real inv_r2e = 1 / (r2 + eps2);  // one division for both viscosities
+        if (vr < 0) coef -= av * vr * inv_r2e * 2 / (rhoi + rho[j]);  // + Pi_ij
         Vec2 fij = -(m * coef) * gw;
         if constexpr (Viscosity)  // Morris, Fox & Zhu (1997)
-          fij += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) / (r2 + eps2)) * vij;
+          fij += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
         fi += fij;
         if (mine) a[j] -= fij;
       }
@@ -201,10 +202,11 @@ void Solver::wcsph_evaluate_impl() {
       const Vec2 vij = vi - v[j];
       Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
       const Real vr = vij.dot(r);
-      if (vr < 0) coef -= av * vr / (r2 + eps2) * 2 / (rhoi + rho[j]);  // + Pi_ij
+      const Real inv_r2e = 1 / (r2 + eps2);  // one division for both viscosities
+      if (vr < 0) coef -= av * vr * inv_r2e * 2 / (rhoi + rho[j]);  // + Pi_ij
       f -= (m * coef) * gw;
       if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
-        f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) / (r2 + eps2)) * vij;
+        f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
       if constexpr ((F & kSurfaceTension) != 0) {
         const Real vol = m * inv_rho[j];
         normal += vol * gw;
