@@ -333,11 +333,13 @@ def main(args) -> int:
             log(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                 f"{o.wall:.1f} s")
     count(violent)
+    def row(first: str, second: str, o: Outcome) -> str:
+        return (f"| {first} | {second} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
+                f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
+
     vrows = ["| method | scene (adaptive dt) | outcome | steps | simulated s | wall s |",
              "|---|---|---|---:|---:|---:|"]
-    for (method, name), o in violent.items():
-        vrows.append(f"| {method} | {name} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
-                     f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
+    vrows += [row(method, name, o) for (method, name), o in violent.items()]
 
     scene_rows = []
     if full:
@@ -354,11 +356,7 @@ def main(args) -> int:
                           "and `time_step: auto`.", "",
                           "| scene | method, step | outcome | steps | simulated s | wall s |",
                           "|---|---|---|---:|---:|---:|"]
-            for (name, how), o in bundled.items():
-                scene_rows.append(
-                    f"| {name} | {how} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
-                    f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
-            scene_rows.append("")
+            scene_rows += [row(name, how, o) for (name, how), o in bundled.items()] + [""]
         else:
             log(f"no scene folder {args.scenes}: the bundled scenes are skipped")
 
