@@ -123,6 +123,10 @@ void bind_solver(py::module_& m) {
       .def_property_readonly("energy_removed", &Solver::energy_removed,
                              "kinetic energy carried out of the domain by removed particles, "
                              "J per m of depth (counted by the guard)")
+      .def_property_readonly("surface_energy", &Solver::surface_energy,
+                             "wcsph with surface tension: the surface energy sigma x length "
+                             "at the last evaluation, J per m of depth (the tension is minus "
+                             "its gradient); 0 otherwise")
       .def_property_readonly("retried_steps", &Solver::retried_steps,
                              "steps retried with a halved time step")
       .def_property_readonly("retry_log", &Solver::retry_log,

@@ -22,11 +22,9 @@ enum class Method : int { kSeed = 0, kWcsph = 1 };
 
 // Whether a step of this method with these features evaluates each fluid pair
 // once, from half neighbour lists: not across periodic seams (minimum images),
-// nor wcsph with surface tension; those keep full lists and the gather loop.
-constexpr bool pairs_once(unsigned features, Method method) {
-  return (features & kPeriodic) == 0 &&
-         (method == Method::kSeed || (features & kSurfaceTension) == 0);
-}
+// which keep full lists and the gather loop. Every other case does (wcsph's
+// surface tension is a pass of its own, surface_energy.hpp).
+constexpr bool pairs_once(unsigned features, Method) { return (features & kPeriodic) == 0; }
 
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 

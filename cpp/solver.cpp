@@ -70,7 +70,13 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
           "a periodic y axis needs a domain at least 2 h high");
   walls_ = WallSet(std::move(walls), P.h);
   require(std::isfinite(P.spacing) && P.spacing >= 0, "spacing must be >= 0");
-  if (P.method == Method::kWcsph) wendland_.build_wall_tables(P.spacing, P.mass / P.rho0);
+  if (P.method == Method::kWcsph) {
+    wendland_.build_wall_tables(P.spacing, P.mass / P.rho0);
+    if (P.sigma > 0)  // surface_energy.hpp: colour kernel support 2 h, nodes dx/2 apart
+      surface_ = SurfaceEnergy(P.sigma, 2 * P.h,
+                               P.spacing > 0 ? P.spacing : std::sqrt(P.mass / P.rho0),
+                               P.domain_min, box_);
+  }
 
   select_step();
   set_state(std::move(positions), std::move(velocities), std::move(ids));

@@ -16,6 +16,7 @@
 #include "particles.hpp"
 #include "periodic.hpp"
 #include "walls.hpp"
+#include "surface_energy.hpp"
 #include "wendland.hpp"
 
 namespace sphfluid {
@@ -67,6 +68,9 @@ class Solver {
   // removed since the budget was set: the guard's energy check counts it, so a
   // blow-up that throws particles out of the domain still trips it.
   Real energy_removed() const { return energy_removed_; }
+  // wcsph with surface tension: the surface energy sigma x length at the last
+  // evaluation, J per m of depth (surface_energy.hpp); 0 otherwise.
+  Real surface_energy() const { return surface_.energy(); }
   std::int64_t retried_steps() const { return retried_steps_; }
   // Messages of the most recent retries (at most kRetryLog), oldest first.
   const std::vector<std::string>& retry_log() const { return retry_log_; }
@@ -101,7 +105,8 @@ class Solver {
             {"wall ghosts", ghosts_.bytes()},
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
-                            normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity()}};
+                            normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity() +
+                            surface_.bytes() + surface_acc_.capacity() * sizeof(Vec2)}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
   std::int64_t neighbour_pairs() const;
@@ -152,6 +157,8 @@ class Solver {
   SimParams params_;
   Kernels kern_;
   Wendland wendland_;  // wcsph's kernel, with its wall tables
+  SurfaceEnergy surface_;  // wcsph's surface tension (inactive without tension)
+  std::vector<Vec2> surface_acc_;  // ... its acceleration
   WallSet walls_;
   PeriodicBox box_;
   unsigned features_ = 0;

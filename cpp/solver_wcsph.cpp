@@ -1,8 +1,9 @@
 // The wcsph method: weakly compressible SPH as engineers use it (Monaghan 1994,
 // 2005; Becker & Teschner 2007). Summation density with the Wendland C2 kernel,
 // Tait EOS clamped at rho0 (no tension), symmetric pressure gradient, Monaghan's
-// artificial viscosity beside Morris' physical viscosity, kick-drift-kick time
-// stepping, and the same walls (ghosts + reflection) as the seed method.
+// artificial viscosity beside Morris' physical viscosity, surface tension as
+// minus the gradient of a surface energy (surface_energy.hpp), kick-drift-kick
+// time stepping, and the same walls (ghosts + reflection) as the seed method.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -140,6 +141,11 @@ void Solver::wcsph_evaluate_impl() {
     mark(kGhosts);
   }
 
+  if constexpr ((F & kSurfaceTension) != 0) {
+    surface_acc_.resize(n);
+    surface_.evaluate(ps_.x.data(), n, P.mass, threads_, surface_acc_.data());
+    mark(kForces);
+  }
   const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
   const Real pb = P.background_pressure;
   Real* rho = ps_.rho.data();
@@ -178,23 +184,20 @@ void Solver::wcsph_evaluate_impl() {
   const Real m = P.mass, hs = Real(0.5) * P.h;  // hs: the smoothing length (support 2 hs)
   const Real eps2 = Real(0.01) * hs * hs;
   const Real av = P.alpha * P.c0 * hs;  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
-  [[maybe_unused]] const Real eta2 = 2 * P.eta, sigma = P.sigma;
-  [[maybe_unused]] const Real threshold = P.effective_surface_threshold();
-  [[maybe_unused]] const Real lap_self = W.laplacian(0);
+  [[maybe_unused]] const Real eta2 = 2 * P.eta;
   const Vec2 g = P.gravity;
-  // Without tension (and periodic seams), each fluid pair once: a[] holds the
-  // pair sums when the loop below starts.
+  // Without periodic seams, each fluid pair once: a[] holds the pair sums when
+  // the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F, Method::kWcsph);
-  if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
+  if constexpr (kPairsOnce)
+    wcsph_pairs_once<(F & kViscosity) != 0>();
+  [[maybe_unused]] const Vec2* surface_acc = surface_acc_.data();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i], vi = v[i];
     const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
     Vec2 f = Vec2::Zero();
     if constexpr (kPairsOnce) f = a[i];
-    [[maybe_unused]] Vec2 normal = Vec2::Zero();
-    [[maybe_unused]] Real lap_c = 0;
-    if constexpr ((F & kSurfaceTension) != 0) lap_c = m * inv_i * lap_self;
     if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
@@ -207,11 +210,6 @@ void Solver::wcsph_evaluate_impl() {
       f -= (m * coef) * gw;
       if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
         f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
-      if constexpr ((F & kSurfaceTension) != 0) {
-        const Real vol = m * inv_rho[j];
-        normal += vol * gw;
-        lap_c += vol * W.laplacian(rl);
-      }
     }
     if constexpr ((F & kWalls) != 0) {
       // A ghost at the foot of the perpendicular stands for the wall's
@@ -234,10 +232,7 @@ void Solver::wcsph_evaluate_impl() {
         f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
       });
     }
-    if constexpr ((F & kSurfaceTension) != 0) {
-      const Real norm = normal.norm();
-      if (norm > threshold) f -= (sigma * lap_c / norm * inv_i) * normal;
-    }
+    if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
     a[i] = f + g;
   }
   mark(kForces);

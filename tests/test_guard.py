@@ -79,28 +79,18 @@ def test_energy_carried_out_of_the_domain_is_counted_and_a_clean_exit_does_not_t
     assert s.energy_removed == 0.0
 
 
-@pytest.mark.xfail(strict=False, reason="known gap (STABILITY.md): whether the energy check "
-                   "trips before the wcsph droplet sheds particles depends on round-off")
-def test_energy_check_catches_a_blow_up_that_throws_particles_out_of_the_domain():
-    # The bundled droplet with wcsph: its surface tension sheds particles out of
-    # the domain (VALIDATION.md, droplet). Each one takes its kinetic energy with
-    # it, so counting only the particles still inside let 270 of 400 leave with
-    # no trip; the energy they carried out now counts against the budget. That
-    # caught this run, but after a change of round-off in wcsph's pair force the
-    # same call sheds 240 with no trip (kinetic energy plus what was carried out
-    # stays under twice the budget; advanced in 0.1 s pieces the run trips at
-    # t = 1.5 s with 23 + 10 J/m against 16.4): the guard's factor of 2 is too
-    # loose for this slow shedding. It stays here, failing, until a tension model
-    # for wcsph (or a tighter check) makes it pass on every trajectory.
+def test_the_wcsph_droplet_advanced_in_one_call_loses_no_particle():
+    # The bundled droplet with wcsph, advanced to its end in one call. With the
+    # colour-field tension wcsph used to borrow from the seed, this run shed 240
+    # to 270 of its 400 particles out of the domain with no trip (kinetic energy
+    # plus what the removed particles carried out stayed under twice the
+    # budget). wcsph's tension is now minus the gradient of a surface energy
+    # (test_surface_energy.py): the drop rounds up and keeps every particle.
     d = json.loads((SCENES_DIR / "droplet.json").read_text())
     d["solver"].update(method="wcsph", time_step="auto")
     sim = sphfluid.Simulation(d)
-    try:
-        sim.advance_to(d["duration"])
-    except sphfluid.InstabilityError as e:
-        assert "[check: energy]" in str(e)
-        return
-    assert sim.removed_particles == 0
+    sim.advance_to(d["duration"])
+    assert sim.removed_particles == 0 and sim._solver.energy_removed == 0.0
 
 
 def test_finite_check(scene_dict):

@@ -50,6 +50,12 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("droplet", "seed", 10): 34,  # 23.94
     ("droplet", "seed", 15): 44,  # 30.77
     ("droplet", "seed", 20): 61,  # 43.11
+    ("droplet", "wcsph", 10): 2,  # 1.385
+    ("droplet", "wcsph", 15): 0.25,  # 0.1738
+    ("droplet", "wcsph", 20): 0.016,  # 0.01117
+    ("oscillation", "wcsph", 10): 0.34,  # 0.2374
+    ("oscillation", "wcsph", 15): 0.19,  # 0.1323
+    ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
 }
 
 COLOURS = {"seed": "C0", "wcsph": "C1"}  # one colour per method in every plot
