@@ -41,6 +41,7 @@ SurfaceEnergy::SurfaceEnergy(Real sigma, Real support, Real spacing, const Vec2&
   const Real gy = box.y ? box.length.y() / period_y_ : g_;
   bin_x_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gx - 1e-9)));
   bin_y_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gy - 1e-9)));
+  run_ = 8 * ((static_cast<Index>(std::ceil(2 * support / g_ - 1e-9)) + 7) / 8);
   scale_ = sigma / flat_length(spacing);
 }
 
@@ -128,9 +129,9 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
   if (box_.x) {
     ix0_ = 0;
     nx_ = period_x_;
-  } else {
+  } else {  // plus room for the fixed-width runs below
     ix0_ = static_cast<Index>(std::floor((lo.x() - H - origin_.x()) / gx));
-    nx_ = static_cast<Index>(std::ceil((hi.x() + H - origin_.x()) / gx)) - ix0_ + 1;
+    nx_ = static_cast<Index>(std::ceil((hi.x() + H - origin_.x()) / gx)) - ix0_ + 1 + run_;
   }
   if (box_.y) {
     iy0_ = 0;
@@ -156,15 +157,18 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
       if (bw < row_lo || bw >= row_hi) continue;
       const Real dy = y0 + b * gy - xj.y(), rest = H2 - dy * dy;
       if (rest <= 0) continue;
+      const std::size_t base = static_cast<std::size_t>(bw) * nx;
+      if (!box_.x) {
+        // A fixed run of run_ nodes (a multiple of 8) from the first one past
+        // x_j - H: it covers every node within H, and the vector loops over it
+        // have no remainder; the nodes beyond H contribute exactly 0.
+        const Index a0 = static_cast<Index>(std::floor((xj.x() - H - x0) * inv_gx)) + 1;
+        row(base + a0, run_, x0 + a0 * gx - xj.x(), dy);
+        continue;
+      }
       const Real half = std::sqrt(rest);
       Index a_lo = static_cast<Index>(std::ceil((xj.x() - half - x0) * inv_gx));
       const Index a_hi = static_cast<Index>(std::floor((xj.x() + half - x0) * inv_gx)) + 1;
-      const std::size_t base = static_cast<std::size_t>(bw) * nx;
-      if (!box_.x) {
-        const Index lo_c = std::max<Index>(a_lo, 0), hi_c = std::min<Index>(a_hi, nx);
-        if (hi_c > lo_c) row(base + lo_c, hi_c - lo_c, x0 + lo_c * gx - xj.x(), dy);
-        continue;
-      }
       while (a_lo < a_hi) {  // at most two runs: up to the seam, then from it
         const Index aw = wrap(a_lo, nx), len = std::min<Index>(a_hi - a_lo, nx - aw);
         row(base + aw, len, x0 + a_lo * gx - xj.x(), dy);

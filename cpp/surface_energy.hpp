@@ -81,6 +81,7 @@ class SurfaceEnergy {
   // Particles binned by position: bins of bin_x_ x bin_y_ nodes (at least H
   // each way), bx_ x by_ of them over the window.
   Index bin_x_ = 1, bin_y_ = 1, bx_ = 0, by_ = 0;
+  Index run_ = 8;  // nodes per row visited around a particle (non-periodic x)
   std::vector<Index> bin_start_, bin_items_, bin_of_;
 };
 
