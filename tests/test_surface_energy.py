@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import sphfluid
 from conftest import ROOT
+from sphfluid import _core
 
 SIGMA = 10.0
 
@@ -47,7 +48,7 @@ def tension_acceleration(d, x):
 
 def surface_energy(sim, x):
     sim.set_state(x, np.zeros_like(x), np.arange(len(x)))
-    return sim._solver.surface_energy
+    return sim.surface_energy
 
 
 def test_tension_force_is_minus_the_gradient_of_the_surface_energy():
@@ -83,7 +84,7 @@ def test_flat_surfaces_hold_sigma_times_their_length():
                        regions=[{"shape": "rectangle", "min": [0.0, -0.1 + y0],
                                  "max": [width, 0.1 + y0]}])
         sim = sphfluid.Simulation(d)
-        assert sim._solver.surface_energy == pytest.approx(SIGMA * 2 * width, rel=0.01)
+        assert sim.surface_energy == pytest.approx(SIGMA * 2 * width, rel=0.01)
 
 
 def test_a_round_drop_holds_sigma_times_its_perimeter_as_the_resolution_grows():
@@ -95,20 +96,20 @@ def test_a_round_drop_holds_sigma_times_its_perimeter_as_the_resolution_grows():
                                              "radius": 0.15}])
         sim = sphfluid.Simulation(d)
         area = sim.n_particles * dx**2  # the particles' share of the plane
-        excess.append(sim._solver.surface_energy / (SIGMA * 2 * math.sqrt(math.pi * area)) - 1)
+        excess.append(sim.surface_energy / (SIGMA * 2 * math.sqrt(math.pi * area)) - 1)
     assert 0 < excess[1] < 0.7 * excess[0] and excess[0] < 0.04
 
 
 def test_energy_scales_with_sigma_and_is_absent_without_tension():
     d = drop_scene()
-    e10 = sphfluid.Simulation(d)._solver.surface_energy
+    e10 = sphfluid.Simulation(d).surface_energy
     d["fluid"]["surface_tension"] = 2.5
-    assert sphfluid.Simulation(d)._solver.surface_energy == pytest.approx(e10 / 4, rel=1e-12)
+    assert sphfluid.Simulation(d).surface_energy == pytest.approx(e10 / 4, rel=1e-12)
     d["fluid"]["surface_tension"] = 0.0
-    assert sphfluid.Simulation(d)._solver.surface_energy == 0.0
+    assert sphfluid.Simulation(d).surface_energy == 0.0
     d["fluid"]["surface_tension"] = SIGMA
     d["solver"]["method"] = "seed"  # the seed's colour field has no energy
-    assert sphfluid.Simulation(d)._solver.surface_energy == 0.0
+    assert sphfluid.Simulation(d).surface_energy == 0.0
 
 
 def total_energy(sim):
@@ -117,7 +118,7 @@ def total_energy(sim):
     r = np.maximum(sim.densities / p.rho0, 1.0)  # Tait, clamped at rho0
     elastic = p.mass * (b / (6 * p.rho0) * (r**6 - 1) + b * (1 / (r * p.rho0) - 1 / p.rho0))
     kinetic = 0.5 * p.mass * (sim.velocities**2).sum()
-    return kinetic + elastic.sum() + sim._solver.surface_energy
+    return kinetic + elastic.sum() + sim.surface_energy
 
 
 def test_the_bundled_droplet_rounds_up_keeps_its_particles_and_loses_energy():
@@ -134,7 +135,7 @@ def test_the_bundled_droplet_rounds_up_keeps_its_particles_and_loses_energy():
     assert max(np.diff(energies)) < 1e-3 * start
     area = 0.4 * 0.4
     circle = SIGMA * 2 * math.sqrt(math.pi * area)
-    assert energies[-1] < 0.92 * start and sim._solver.surface_energy == pytest.approx(
+    assert energies[-1] < 0.92 * start and sim.surface_energy == pytest.approx(
         circle, rel=0.03)
     x = sim.positions - sim.positions.mean(0)
     r = np.linalg.norm(x, axis=1)
@@ -142,7 +143,21 @@ def test_the_bundled_droplet_rounds_up_keeps_its_particles_and_loses_energy():
 
 
 def test_too_short_a_periodic_axis_for_the_tension_is_a_clear_error():
+    # 0.1 m: enough for the pressure kernel (2 h = 0.08 m), not for the colour
+    # field (4 h + dx/2 = 0.17 m).
     d = drop_scene(domain=((0.0, -0.5), (0.1, 0.5)), periodic=[True, False],
                    regions=[{"shape": "rectangle", "min": [0.0, -0.1], "max": [0.1, 0.1]}])
-    with pytest.raises(ValueError, match="periodic x axis at least"):
+    with pytest.raises(sphfluid.SceneError, match=r"domain\.periodic.*4 smoothing lengths"):
         sphfluid.Simulation(d)
+    d["solver"]["method"] = "seed"  # the seed's colour field reaches h only
+    d["solver"]["time_step"] = 1e-4
+    sphfluid.Simulation(d)
+    # The core says so too, to callers that build it by hand.
+    p = _core.SimParams()
+    p.method, p.h, p.mass, p.rho0, p.c0, p.sigma = _core.Method.wcsph, 0.04, 0.4, 1000.0, 10.0, 1.0
+    p.domain_min, p.domain_max, p.periodic = (0.0, -0.5), (0.1, 0.5), (True, False)
+    x = np.array([[0.01, 0.0], [0.03, 0.0]])
+    with pytest.raises(ValueError, match="periodic x axis at least"):
+        _core.Solver(p, x, np.zeros_like(x), np.zeros((0, 2, 2)))
+    p.domain_max = (0.2, 0.5)
+    _core.Solver(p, x, np.zeros_like(x), np.zeros((0, 2, 2)))

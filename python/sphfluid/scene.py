@@ -476,6 +476,12 @@ class _Validator:
                     self.fail("domain.periodic", f"a periodic {name} axis needs a domain at "
                               f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
                               f"{hi[axis] - lo[axis]:g} m")
+                elif (periodic[axis] and method == "wcsph" and sigma and dx
+                      and hi[axis] - lo[axis] < 4 * h + dx / 2):
+                    # cpp/surface_energy.hpp: the colour field's support is 2 h
+                    self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
+                              f"{name} axis at least 4 smoothing lengths plus half a spacing "
+                              f"({4 * h + dx / 2:g} m) {extent}, got {hi[axis] - lo[axis]:g} m")
         if lo and hi:
             for i, r in enumerate(regions):
                 (x0, y0), (x1, y1) = r.bounds()

@@ -298,6 +298,12 @@ class Simulation:
         return self._solver.walls
 
     @property
+    def surface_energy(self) -> float:
+        """wcsph with surface tension: the surface energy sigma x length of the
+        state, J per m of depth (the tension is minus its gradient); 0 otherwise."""
+        return self._solver.surface_energy
+
+    @property
     def retried_steps(self) -> int:
         """Steps retried with a halved time step (on_instability: "retry")."""
         return self._solver.retried_steps
@@ -342,6 +348,7 @@ class Simulation:
             "energy_budget": self._solver.energy_budget,  # J per m depth, for the guard
             # J per m depth carried out of the domain by removed particles (the guard counts it)
             "energy_removed": self._solver.energy_removed,
+            "surface_energy": self.surface_energy,  # J per m depth (wcsph with tension)
         }
 
 
