@@ -20,11 +20,11 @@ constexpr unsigned kNumFeatureSets = 16;
 
 enum class Method : int { kSeed = 0, kWcsph = 1 };
 
-// Whether a step of this method with these features evaluates each fluid pair
-// once, from half neighbour lists: not across periodic seams (minimum images),
-// which keep full lists and the gather loop. Every other case does (wcsph's
-// surface tension is a pass of its own, surface_energy.hpp).
-constexpr bool pairs_once(unsigned features, Method) { return (features & kPeriodic) == 0; }
+// Whether a step with these features evaluates each fluid pair once, from half
+// neighbour lists (either method): not across periodic seams (minimum images),
+// which keep full lists and the gather loop. wcsph's surface tension is a pass
+// of its own (surface_energy.hpp).
+constexpr bool pairs_once(unsigned features) { return (features & kPeriodic) == 0; }
 
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 

@@ -326,7 +326,7 @@ template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   // seed eq. 10
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F, Method::kSeed)>(
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
       Kernels::Poly6OfR2{&kern_});
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
@@ -525,7 +525,7 @@ void Solver::compute_accelerations() {
   const Vec2 g = params_.gravity;
   // Without periodic seams, each fluid pair once: a[] (and, with tension, the
   // colour field's sums) hold the pair sums when the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F, Method::kSeed);
+  constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {

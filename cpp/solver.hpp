@@ -15,8 +15,8 @@
 #include "params.hpp"
 #include "particles.hpp"
 #include "periodic.hpp"
-#include "walls.hpp"
 #include "surface_energy.hpp"
+#include "walls.hpp"
 #include "wendland.hpp"
 
 namespace sphfluid {

@@ -132,7 +132,7 @@ void Solver::wcsph_evaluate_impl() {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F, Method::kWcsph)>(
+  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
       Wendland::OfR2{&W});  // summation density, self included
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
@@ -188,9 +188,8 @@ void Solver::wcsph_evaluate_impl() {
   const Vec2 g = P.gravity;
   // Without periodic seams, each fluid pair once: a[] holds the pair sums when
   // the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F, Method::kWcsph);
-  if constexpr (kPairsOnce)
-    wcsph_pairs_once<(F & kViscosity) != 0>();
+  constexpr bool kPairsOnce = pairs_once(F);
+  if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
   [[maybe_unused]] const Vec2* surface_acc = surface_acc_.data();
 #pragma omp parallel for schedule(static) num_threads(threads_)
   for (Index i = 0; i < n; ++i) {

@@ -8,6 +8,14 @@ namespace sphfluid {
 
 namespace {
 
+// Room for n entries, a quarter more when it must grow: the node window
+// follows the fluid's bounding box, and a drop that spreads step by step
+// should not reallocate at every step.
+template <class T>
+void room(std::vector<T>& v, std::size_t n) {
+  if (v.capacity() < n) v.reserve(n + n / 4);
+}
+
 // The nodes of a periodic axis of length len at about spacing g: a whole
 // number of them, so that the lattice wraps onto itself.
 Index periodic_nodes(Real len, Real g) {
@@ -98,6 +106,8 @@ void SurfaceEnergy::bin_particles(const Vec2* x, Index n) {
   const Real gy = box_.y ? box_.length.y() / period_y_ : g_;
   bx_ = std::max<Index>(1, nx_ / bin_x_);  // the last bin takes the remainder
   by_ = std::max<Index>(1, ny_ / bin_y_);
+  room(bin_start_, static_cast<std::size_t>(bx_ * by_) + 1);
+  room(bin_fill_, static_cast<std::size_t>(bx_ * by_));
   bin_start_.assign(static_cast<std::size_t>(bx_ * by_) + 1, 0);
   bin_of_.resize(n);
   for (Index i = 0; i < n; ++i) {
@@ -110,8 +120,8 @@ void SurfaceEnergy::bin_particles(const Vec2* x, Index n) {
   }
   for (std::size_t k = 1; k < bin_start_.size(); ++k) bin_start_[k] += bin_start_[k - 1];
   bin_items_.resize(n);
-  std::vector<Index> fill(bin_start_.begin(), bin_start_.end() - 1);
-  for (Index i = 0; i < n; ++i) bin_items_[fill[bin_of_[i]]++] = i;  // in index order
+  bin_fill_.assign(bin_start_.begin(), bin_start_.end() - 1);
+  for (Index i = 0; i < n; ++i) bin_items_[bin_fill_[bin_of_[i]]++] = i;  // in index order
 }
 
 Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec2* acc) {
@@ -226,6 +236,8 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
   // are filled by one thread from the particles of the bin rows around it, in
   // a fixed order (so the sums do not depend on the thread count).
   const std::size_t nodes = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  room(node_x_, nodes);
+  room(node_y_, nodes);
   node_x_.assign(nodes, 0);
   node_y_.assign(nodes, 0);
   Real* nxs = node_x_.data();
@@ -257,6 +269,7 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
         }
   }
   // n_c and the length estimate, per row, summed in row order.
+  room(row_sums_, static_cast<std::size_t>(ny));
   row_sums_.assign(static_cast<std::size_t>(ny), 0);
   const Real eps = eps_;
 #pragma omp parallel for schedule(static) num_threads(threads)
@@ -322,7 +335,9 @@ std::size_t SurfaceEnergy::bytes() const {
   return (node_x_.capacity() + node_y_.capacity() + row_sums_.capacity() + vol_.capacity() +
           gamma_.capacity()) *
              sizeof(Real) +
-         (bin_start_.capacity() + bin_items_.capacity() + bin_of_.capacity()) * sizeof(Index);
+         (bin_start_.capacity() + bin_items_.capacity() + bin_of_.capacity() +
+          bin_fill_.capacity()) *
+             sizeof(Index);
 }
 
 }  // namespace sphfluid

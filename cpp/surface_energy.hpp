@@ -82,7 +82,7 @@ class SurfaceEnergy {
   // each way), bx_ x by_ of them over the window.
   Index bin_x_ = 1, bin_y_ = 1, bx_ = 0, by_ = 0;
   Index run_ = 8;  // nodes per row visited around a particle (non-periodic x)
-  std::vector<Index> bin_start_, bin_items_, bin_of_;
+  std::vector<Index> bin_start_, bin_items_, bin_of_, bin_fill_;
 };
 
 }  // namespace sphfluid

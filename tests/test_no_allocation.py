@@ -9,6 +9,7 @@ import platform
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -43,11 +44,16 @@ DRIVER = r"""
 import ctypes, sys
 count = ctypes.CDLL(None).sphfluid_test_allocations
 count.restype = ctypes.c_long
+import json, pathlib
 import sphfluid
 from sphfluid.bench import dam_break_scene
 from sphfluid.bench_suite import bare_scene
+drop = json.loads(pathlib.Path(sys.argv[1]).read_text())
+drop["solver"].update(time_step="auto")
 for method in ("seed", "wcsph"):
-    for name, scene in (("dam", dam_break_scene(3000, method)), ("bare", bare_scene(1000, method))):
+    drop["solver"]["method"] = method
+    for name, scene in (("dam", dam_break_scene(3000, method)), ("bare", bare_scene(1000, method)),
+                        ("drop", drop)):
         for threads in (1, 2):
             sim = sphfluid.Simulation(scene, threads=threads)
             sim.step(30)  # the arrays reach their working sizes
@@ -66,11 +72,12 @@ def test_steps_do_not_allocate(tmp_path):
     subprocess.run([cc, "-O2", "-shared", "-fPIC", str(tmp_path / "count.c"), "-o", str(lib),
                     "-ldl"], check=True, capture_output=True, text=True)
     env = dict(os.environ, LD_PRELOAD=str(lib))
-    out = subprocess.run([sys.executable, "-c", DRIVER], env=env, capture_output=True,
-                         text=True, timeout=300)
+    droplet = Path(__file__).resolve().parent.parent / "scenes" / "droplet.json"  # tension
+    out = subprocess.run([sys.executable, "-c", DRIVER, str(droplet)], env=env,
+                         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
-    assert len(rows) == 8, out.stdout
+    assert len(rows) == 12, out.stdout
     for method, name, threads, one, many in rows:
         # The call from Python costs the same few allocations for 1 step or
         # 200; the neighbour chunks may still grow by an eighth once or twice.

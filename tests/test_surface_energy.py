@@ -76,6 +76,31 @@ def test_tension_force_is_minus_the_gradient_of_the_surface_energy():
     assert np.dot(acc[rim], x.mean(0) - x[rim]) > 0
 
 
+def test_the_force_is_the_energy_gradient_across_a_periodic_seam_too():
+    width = 0.4
+    d = drop_scene(viscosity=0.0, domain=((0.0, -0.5), (width, 0.5)), periodic=[True, False],
+                   regions=[{"shape": "rectangle", "min": [0.0, -0.1], "max": [width, 0.1]}])
+    sim = sphfluid.Simulation(d)
+    rng = np.random.default_rng(5)
+    x = sim.positions.copy() + rng.normal(0.0, 0.003, sim.positions.shape)
+    x[:, 0] %= width
+    acc = tension_acceleration(d, x)
+    m = sim.particle_mass
+    # the particles nearest the seam, at the top surface and inside
+    near_seam = np.minimum(x[:, 0], width - x[:, 0]) < 0.01
+    picks = [int(np.flatnonzero(near_seam)[np.argmax(x[near_seam, 1])]),
+             int(np.flatnonzero(near_seam)[np.argmin(np.abs(x[near_seam, 1]))])]
+    step = 1e-6
+    for j in picks:
+        for axis in (0, 1):
+            plus, minus = x.copy(), x.copy()
+            plus[j, axis] += step
+            minus[j, axis] -= step
+            grad = (surface_energy(sim, plus) - surface_energy(sim, minus)) / (2 * step)
+            scale = np.abs(acc[j]).max() * m
+            assert -grad == pytest.approx(m * acc[j, axis], abs=1e-4 * scale), (j, axis)
+
+
 def test_flat_surfaces_hold_sigma_times_their_length():
     # A slab across a periodic strip: two flat surfaces, each as long as the strip.
     width = 0.4
