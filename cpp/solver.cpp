@@ -196,7 +196,10 @@ void Solver::compute_energy_budget() {
   }
   // Surface energy that tension can release: sigma times the initial surface
   // length (or, unknown, a length longer than any n particles can have).
-  const Real surface = P.sigma * (P.surface_length > 0 ? P.surface_length : n * P.h);
+  Real surface = P.sigma * (P.surface_length > 0 ? P.surface_length : n * P.h);
+  // wcsph's tension can release at most its surface energy, which counts a
+  // lone particle's rim too (more than sigma h): the state's own value bounds it.
+  if (surface_.active()) surface = std::max(surface, surface_.energy());
   const Real c = P.sound_speed();
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
   energy_budget_ = kinetic + release + elastic + surface + floor;

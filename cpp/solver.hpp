@@ -127,6 +127,7 @@ class Solver {
   void select_wcsph_step();
   template <unsigned F> void wcsph_step_impl(Real dt, Real dt_cap);
   template <unsigned F> void wcsph_evaluate_impl();
+  template <unsigned F> void wcsph_evaluate_kick(Real half);
   template <unsigned F> void evaluate_impl();
   template <unsigned F> void compute_density();
   template <unsigned F> void compute_accelerations();

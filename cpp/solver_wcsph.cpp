@@ -47,27 +47,7 @@ void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   mark(kIntegrate);
   remove_outside_domain();
   mark(kDomain);
-  wcsph_evaluate_impl<F>();
-  const Index n = size();
-  // Second kick, into a fresh buffer: a non-finite result keeps the half step.
-  const Vec2* v = ps_.v.data();
-  const Vec2* a = ps_.a.data();
-  Vec2* v_new = ps_.v.begin_write(n);
-  bool bad = false;
-#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
-  for (Index i = 0; i < n; ++i) {
-    v_new[i] = v[i] + half * a[i];
-    bad = bad || !v_new[i].allFinite();
-  }
-  if (bad) {
-    for (Index i = 0; i < n; ++i)
-      if (!v_new[i].allFinite())
-        throw InstabilityError("step " + std::to_string(step_count_ + 1) + ": particle id " +
-                               std::to_string(ps_.id[i]) + " got a non-finite velocity in the "
-                               "second half-kick [check: finite] (the state kept is the "
-                               "half step)");
-  }
-  ps_.v.commit_write();
+  wcsph_evaluate_kick<F>(half);  // the second kick rides on the force loop
   mark(kIntegrate);
   time_ += dt;
   ++step_count_;
@@ -128,6 +108,14 @@ void Solver::wcsph_pairs_once() {
 
 template <unsigned F>
 void Solver::wcsph_evaluate_impl() {
+  wcsph_evaluate_kick<F>(0);
+}
+
+// The evaluation; with half > 0 also the second half-kick, v += half a, each
+// particle's as soon as its acceleration is known, into a fresh buffer: a
+// non-finite result keeps the half-step velocities.
+template <unsigned F>
+void Solver::wcsph_evaluate_kick(Real half) {
   mark_ = std::chrono::steady_clock::now();
   const Index n = size();
   const SimParams& P = params_;
@@ -191,7 +179,10 @@ void Solver::wcsph_evaluate_impl() {
   constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
   [[maybe_unused]] const Vec2* surface_acc = surface_acc_.data();
-#pragma omp parallel for schedule(static) num_threads(threads_)
+  const bool kick = half > 0;
+  Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;
+  bool bad = false;
+#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i], vi = v[i];
     const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
@@ -233,8 +224,22 @@ void Solver::wcsph_evaluate_impl() {
     }
     if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
     a[i] = f + g;
+    if (kick) {
+      v_new[i] = vi + half * a[i];
+      bad = bad || !v_new[i].allFinite();
+    }
   }
   mark(kForces);
+  if (!kick) return;
+  if (bad) {
+    for (Index i = 0; i < n; ++i)
+      if (!v_new[i].allFinite())
+        throw InstabilityError("step " + std::to_string(step_count_ + 1) + ": particle id " +
+                               std::to_string(ps_.id[i]) + " got a non-finite velocity in the "
+                               "second half-kick [check: finite] (the state kept is the "
+                               "half step)");
+  }
+  ps_.v.commit_write();
 }
 
 }  // namespace sphfluid

@@ -50,7 +50,11 @@ SurfaceEnergy::SurfaceEnergy(Real sigma, Real support, Real spacing, const Vec2&
   bin_x_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gx - 1e-9)));
   bin_y_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gy - 1e-9)));
   run_ = 8 * ((static_cast<Index>(std::ceil(2 * support / g_ - 1e-9)) + 7) / 8);
-  scale_ = sigma / flat_length(spacing);
+  const Real flat = flat_length(spacing);
+  if (!(flat > 0))
+    throw std::invalid_argument("surface tension with wcsph needs a smoothing length h well "
+                                "above the spacing (h = 2 spacings is the default)");
+  scale_ = sigma / flat;
 }
 
 // For sigma' = 1, the surface energy per unit length of the flat surface
@@ -136,6 +140,12 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
     lo = lo.cwiseMin(x[i]);
     hi = hi.cwiseMax(x[i]);
   }
+  // The solver's guard keeps positions finite; a NaN here would index nodes
+  // far outside the window.
+  for (Index i = 0; i < n; ++i)
+    if (!x[i].allFinite())
+      throw std::invalid_argument("surface energy: particle " + std::to_string(i) +
+                                  " has a non-finite position");
   if (box_.x) {
     ix0_ = 0;
     nx_ = period_x_;

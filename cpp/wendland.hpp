@@ -169,16 +169,6 @@ struct Wendland {
     const Real a = 1 - q;
     return (grad * a * a * a) * r_ij;
   }
-  // (grad grad W) d: the Hessian W'/r I + (W'' - W'/r) r^ r^ times d, with
-  // W'/r = -140/(pi h^4) (1 - q)^3 and W'' = -140/(pi h^4) (1 - q)^2 (1 - 4q).
-  Vec2 hessian_times(const Vec2& r_ij, Real r, const Vec2& d) const {
-    const Real q = r * inv_h;
-    if (q >= 1) return Vec2::Zero();
-    const Real a = 1 - q;
-    Vec2 out = a * d;
-    if (r > 0) out -= (3 * r_ij.dot(d) * inv_h / r) * r_ij;
-    return (grad * a * a) * out;
-  }
   // lap W = W'' + W'/r = -140/(pi h^4) (1 - q)^2 (2 - 5q)
   Real laplacian(Real r) const {
     const Real q = r * inv_h;

@@ -34,6 +34,10 @@ DEFAULT_SURFACE_THRESHOLD_TIMES_H = 0.323
 
 # Limits that keep a scene within this machine's means.
 MAX_DOMAIN_CELLS = 50_000_000  # cells of size h over the domain (cell grid bound)
+# wcsph's surface energy (cpp/surface_energy.hpp): its smallest h over dx, and
+# the most nodes (16 bytes each) its lattice over the domain may need.
+MIN_TENSION_SMOOTHING = 1.5
+MAX_TENSION_NODES = 50_000_000
 BYTES_PER_PARTICLE = 512  # state, sort scratch, neighbour lists, set-up temporaries
 MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 
@@ -482,6 +486,23 @@ class _Validator:
                     self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
                               f"{name} axis at least 4 smoothing lengths plus half a spacing "
                               f"({4 * h + dx / 2:g} m) {extent}, got {hi[axis] - lo[axis]:g} m")
+        if method == "wcsph" and sigma and dx and h:
+            # cpp/surface_energy.hpp: the surface energy is summed on nodes dx/2
+            # apart over the fluid's bounding box, with a colour kernel of support 2 h.
+            if h < MIN_TENSION_SMOOTHING * dx:
+                self.fail("resolution.smoothing_length", f"with surface tension, wcsph needs "
+                          f"h of at least {MIN_TENSION_SMOOTHING:g} spacings ({h / dx:.3g} "
+                          "given): below that the fluid's own lattice ripple outweighs the "
+                          "surface (README, \"The wcsph method\"); 2 spacings is the default")
+            elif lo and hi:
+                nodes = ((hi[0] - lo[0] + 4 * h) / (dx / 2) + 1) * (
+                    (hi[1] - lo[1] + 4 * h) / (dx / 2) + 1)
+                if nodes > MAX_TENSION_NODES:
+                    self.fail("domain", f"with surface tension, wcsph sums the surface energy "
+                              f"on nodes half a spacing apart over the fluid's extent: this "
+                              f"domain could need {nodes:.3g} of them, more than the "
+                              f"{MAX_TENSION_NODES:.0e} allowed ({16 * MAX_TENSION_NODES / 1e9:g} "
+                              "GB); shrink the domain to where the fluid can go")
         if lo and hi:
             for i, r in enumerate(regions):
                 (x0, y0), (x1, y1) = r.bounds()
