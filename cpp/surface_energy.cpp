@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace sphfluid {
 
@@ -28,22 +29,17 @@ SurfaceEnergy::SurfaceEnergy(Real sigma, Real support, Real spacing, const Vec2&
                              const PeriodicBox& box)
     : w_(support), g_(Real(0.5) * spacing), eps_(Real(0.05) / support), origin_(origin),
       box_(box) {
-  if (box.x) {
-    if (box.length.x() < 2 * support + g_)
-      throw std::invalid_argument("surface tension with wcsph needs a periodic x axis at least " +
-                                  std::to_string(2 * support + g_) +
+  // A periodic axis: nodes anchored on its box, a whole number of them.
+  auto periodic_axis = [&](Real length, Real lo, const char* name, Index& period, Real& at) {
+    if (length < 2 * support + g_)
+      throw std::invalid_argument(std::string("surface tension with wcsph needs a periodic ") +
+                                  name + " axis at least " + std::to_string(2 * support + g_) +
                                   " m long (4 h plus half a spacing)");
-    period_x_ = periodic_nodes(box.length.x(), g_);
-    origin_.x() = box.lo.x();
-  }
-  if (box.y) {
-    if (box.length.y() < 2 * support + g_)
-      throw std::invalid_argument("surface tension with wcsph needs a periodic y axis at least " +
-                                  std::to_string(2 * support + g_) +
-                                  " m long (4 h plus half a spacing)");
-    period_y_ = periodic_nodes(box.length.y(), g_);
-    origin_.y() = box.lo.y();
-  }
+    period = periodic_nodes(length, g_);
+    at = lo;
+  };
+  if (box.x) periodic_axis(box.length.x(), box.lo.x(), "x", period_x_, origin_.x());
+  if (box.y) periodic_axis(box.length.y(), box.lo.y(), "y", period_y_, origin_.y());
   // Bins of whole nodes, at least H along each axis.
   const Real gx = box.x ? box.length.x() / period_x_ : g_;
   const Real gy = box.y ? box.length.y() / period_y_ : g_;

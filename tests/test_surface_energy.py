@@ -51,18 +51,9 @@ def surface_energy(sim, x):
     return sim.surface_energy
 
 
-def test_tension_force_is_minus_the_gradient_of_the_surface_energy():
-    d = drop_scene(viscosity=0.0, regions=[{"shape": "circle", "center": [0.0, 0.0],
-                                            "radius": 0.1}])
-    sim = sphfluid.Simulation(d)
-    rng = np.random.default_rng(3)
-    x = sim.positions.copy() + rng.normal(0.0, 0.003, sim.positions.shape)
-    acc = tension_acceleration(d, x)
+def assert_force_is_minus_the_gradient(sim, x, acc, picks, step=1e-6):
+    """m a_j against central differences of the surface energy in x_j."""
     m = sim.particle_mass
-    dist = np.linalg.norm(x - x.mean(0), axis=1)
-    # particles at the rim, just inside it and at the centre
-    picks = [int(np.argmax(dist)), int(np.argsort(dist)[-15]), int(np.argmin(dist))]
-    step = 1e-6
     for j in picks:
         for axis in (0, 1):
             plus, minus = x.copy(), x.copy()
@@ -71,6 +62,19 @@ def test_tension_force_is_minus_the_gradient_of_the_surface_energy():
             grad = (surface_energy(sim, plus) - surface_energy(sim, minus)) / (2 * step)
             scale = np.abs(acc[j]).max() * m
             assert -grad == pytest.approx(m * acc[j, axis], abs=1e-4 * scale), (j, axis)
+
+
+def test_tension_force_is_minus_the_gradient_of_the_surface_energy():
+    d = drop_scene(viscosity=0.0, regions=[{"shape": "circle", "center": [0.0, 0.0],
+                                            "radius": 0.1}])
+    sim = sphfluid.Simulation(d)
+    rng = np.random.default_rng(3)
+    x = sim.positions.copy() + rng.normal(0.0, 0.003, sim.positions.shape)
+    acc = tension_acceleration(d, x)
+    dist = np.linalg.norm(x - x.mean(0), axis=1)
+    # particles at the rim, just inside it and at the centre
+    picks = [int(np.argmax(dist)), int(np.argsort(dist)[-15]), int(np.argmin(dist))]
+    assert_force_is_minus_the_gradient(sim, x, acc, picks)
     # the rim is pulled inwards
     rim = picks[0]
     assert np.dot(acc[rim], x.mean(0) - x[rim]) > 0
@@ -85,20 +89,11 @@ def test_the_force_is_the_energy_gradient_across_a_periodic_seam_too():
     x = sim.positions.copy() + rng.normal(0.0, 0.003, sim.positions.shape)
     x[:, 0] %= width
     acc = tension_acceleration(d, x)
-    m = sim.particle_mass
     # the particles nearest the seam, at the top surface and inside
     near_seam = np.minimum(x[:, 0], width - x[:, 0]) < 0.01
     picks = [int(np.flatnonzero(near_seam)[np.argmax(x[near_seam, 1])]),
              int(np.flatnonzero(near_seam)[np.argmin(np.abs(x[near_seam, 1]))])]
-    step = 1e-6
-    for j in picks:
-        for axis in (0, 1):
-            plus, minus = x.copy(), x.copy()
-            plus[j, axis] += step
-            minus[j, axis] -= step
-            grad = (surface_energy(sim, plus) - surface_energy(sim, minus)) / (2 * step)
-            scale = np.abs(acc[j]).max() * m
-            assert -grad == pytest.approx(m * acc[j, axis], abs=1e-4 * scale), (j, axis)
+    assert_force_is_minus_the_gradient(sim, x, acc, picks)
 
 
 def test_flat_surfaces_hold_sigma_times_their_length():
