@@ -57,6 +57,20 @@ def test_scalar_modes_colour_by_their_field(display):
     assert int(bottom[0]) - int(bottom[2]) > int(top[0]) - int(top[2])
 
 
+def test_pressure_scale_of_a_drop_in_zero_gravity_is_its_laplace_pressure(display):
+    # The bundled droplet: no gravity, so the hydrostatic head is 0; the colour
+    # scale follows sigma/R (a 0.4 m square: R = 0.2 m, 50 Pa) instead of 1 Pa.
+    d = json.loads((ROOT / "scenes" / "droplet.json").read_text())
+    d["solver"].update(method="wcsph", time_step="auto")
+    sim = sphfluid.Simulation(d)
+    sim.run(0.5)
+    _, r = render(sim, "pressure")
+    values, _, low, high = r.field()
+    assert high == pytest.approx(2 * 10.0 / 0.2 / 1000) and low == -high  # kPa
+    inside = np.median(values[values > 0])
+    assert 0.1 * high < inside < high  # the inside is coloured, not saturated
+
+
 def test_saved_scene_loads_again_with_the_same_walls(display, tmp_path):
     scene = sphfluid.load_scene(ROOT / "scenes" / "terrain.json")
     sim = sphfluid.Simulation(scene)

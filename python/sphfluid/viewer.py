@@ -115,7 +115,14 @@ class Renderer:
         g = float(np.hypot(*scene.gravity))
         height = scene.domain_max[1] - scene.domain_min[1]
         self.vmax = float(np.sqrt(2 * g * height)) if g > 0 else 1.0
-        self.pmax = max(1.0, scene.rest_density * g * height)  # Pa
+        # Pressure scale: the hydrostatic head, or Laplace's sigma/R of the
+        # smallest fluid region (a drop in zero gravity), whichever is larger.
+        laplace = 0.0
+        if scene.surface_tension > 0 and scene.regions:
+            sizes = [min(x1 - x0, y1 - y0) for (x0, y0), (x1, y1) in
+                     (r.bounds() for r in scene.regions)]
+            laplace = scene.surface_tension / max(0.5 * min(sizes), 1e-9)
+        self.pmax = max(1.0, scene.rest_density * g * height, 2 * laplace)  # Pa
 
     def resize(self, size: tuple[int, int]) -> None:
         """Fit the domain into a window of this size (also resets zoom and pan)."""
