@@ -195,10 +195,10 @@ void Solver::compute_energy_budget() {
       release = std::max(release, n * m * P.gravity.dot(c - centre));
   }
   // Surface energy that tension can release: sigma times the initial surface
-  // length (or, unknown, a length longer than any n particles can have).
+  // length (or, unknown, sigma n h). wcsph's tension can release at most its
+  // surface energy, which counts a lone particle's rim too (more than sigma h):
+  // the state's own value bounds it.
   Real surface = P.sigma * (P.surface_length > 0 ? P.surface_length : n * P.h);
-  // wcsph's tension can release at most its surface energy, which counts a
-  // lone particle's rim too (more than sigma h): the state's own value bounds it.
   if (surface_.active()) surface = std::max(surface, surface_.energy());
   const Real c = P.sound_speed();
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);

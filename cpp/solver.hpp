@@ -106,7 +106,7 @@ class Solver {
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
                             normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity() +
-                            surface_.bytes() + surface_acc_.capacity() * sizeof(Vec2)}};
+                            surface_.bytes()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
   std::int64_t neighbour_pairs() const;
@@ -159,7 +159,6 @@ class Solver {
   Kernels kern_;
   Wendland wendland_;  // wcsph's kernel, with its wall tables
   SurfaceEnergy surface_;  // wcsph's surface tension (inactive without tension)
-  std::vector<Vec2> surface_acc_;  // ... its acceleration
   WallSet walls_;
   PeriodicBox box_;
   unsigned features_ = 0;

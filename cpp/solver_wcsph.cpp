@@ -130,8 +130,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   }
 
   if constexpr ((F & kSurfaceTension) != 0) {
-    surface_acc_.resize(n);
-    surface_.evaluate(ps_.x.data(), n, P.mass, threads_, surface_acc_.data());
+    surface_.evaluate(ps_.x.data(), n, P.mass, threads_);
     mark(kForces);
   }
   const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
@@ -178,7 +177,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   // the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
-  [[maybe_unused]] const Vec2* surface_acc = surface_acc_.data();
+  [[maybe_unused]] const Vec2* surface_acc = surface_.accelerations();
   const bool kick = half > 0;
   Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;
   bool bad = false;

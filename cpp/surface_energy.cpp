@@ -40,11 +40,11 @@ SurfaceEnergy::SurfaceEnergy(Real sigma, Real support, Real spacing, const Vec2&
   };
   if (box.x) periodic_axis(box.length.x(), box.lo.x(), "x", period_x_, origin_.x());
   if (box.y) periodic_axis(box.length.y(), box.lo.y(), "y", period_y_, origin_.y());
+  gx_ = box.x ? box.length.x() / period_x_ : g_;
+  gy_ = box.y ? box.length.y() / period_y_ : g_;
   // Bins of whole nodes, at least H along each axis.
-  const Real gx = box.x ? box.length.x() / period_x_ : g_;
-  const Real gy = box.y ? box.length.y() / period_y_ : g_;
-  bin_x_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gx - 1e-9)));
-  bin_y_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gy - 1e-9)));
+  bin_x_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gx_ - 1e-9)));
+  bin_y_ = std::max<Index>(1, static_cast<Index>(std::ceil(support / gy_ - 1e-9)));
   run_ = 8 * ((static_cast<Index>(std::ceil(2 * support / g_ - 1e-9)) + 7) / 8);
   const Real flat = flat_length(spacing);
   if (!(flat > 0))
@@ -102,8 +102,7 @@ Real SurfaceEnergy::flat_length(Real dx) const {
 }
 
 void SurfaceEnergy::bin_particles(const Vec2* x, Index n) {
-  const Real gx = box_.x ? box_.length.x() / period_x_ : g_;
-  const Real gy = box_.y ? box_.length.y() / period_y_ : g_;
+  const Real gx = gx_, gy = gy_;
   bx_ = std::max<Index>(1, nx_ / bin_x_);  // the last bin takes the remainder
   by_ = std::max<Index>(1, ny_ / bin_y_);
   room(bin_start_, static_cast<std::size_t>(bx_ * by_) + 1);
@@ -124,24 +123,24 @@ void SurfaceEnergy::bin_particles(const Vec2* x, Index n) {
   for (Index i = 0; i < n; ++i) bin_items_[bin_fill_[bin_of_[i]]++] = i;  // in index order
 }
 
-Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec2* acc) {
+void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   energy_ = 0;
-  if (n == 0) return 0;
+  room(acc_, static_cast<std::size_t>(n));
+  acc_.resize(n);
+  if (n == 0) return;
+  Vec2* acc = acc_.data();
   const Real H = w_.h, H2 = H * H;
-  const Real gx = box_.x ? box_.length.x() / period_x_ : g_;
-  const Real gy = box_.y ? box_.length.y() / period_y_ : g_;
-  // The window of nodes within H of a particle.
+  const Real gx = gx_, gy = gy_;
+  // The window of nodes within H of a particle. The solver's guard keeps
+  // positions finite; a NaN here would index nodes far outside the window.
   Vec2 lo = x[0], hi = x[0];
-  for (Index i = 1; i < n; ++i) {
-    lo = lo.cwiseMin(x[i]);
-    hi = hi.cwiseMax(x[i]);
-  }
-  // The solver's guard keeps positions finite; a NaN here would index nodes
-  // far outside the window.
-  for (Index i = 0; i < n; ++i)
+  for (Index i = 0; i < n; ++i) {
     if (!x[i].allFinite())
       throw std::invalid_argument("surface energy: particle " + std::to_string(i) +
                                   " has a non-finite position");
+    lo = lo.cwiseMin(x[i]);
+    hi = hi.cwiseMax(x[i]);
+  }
   if (box_.x) {
     ix0_ = 0;
     nx_ = period_x_;
@@ -334,13 +333,13 @@ Real SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads, Vec
     });
     acc[j] += f / mass;
   }
-  return energy_;
 }
 
 std::size_t SurfaceEnergy::bytes() const {
   return (node_x_.capacity() + node_y_.capacity() + row_sums_.capacity() + vol_.capacity() +
           gamma_.capacity()) *
              sizeof(Real) +
+         acc_.capacity() * sizeof(Vec2) +
          (bin_start_.capacity() + bin_items_.capacity() + bin_of_.capacity() +
           bin_fill_.capacity()) *
              sizeof(Index);

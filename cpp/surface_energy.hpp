@@ -49,14 +49,11 @@ class SurfaceEnergy {
   SurfaceEnergy() = default;
 
   bool active() const { return scale_ > 0; }
-  // Sets acc[j] to minus the gradient of E_s with respect to x_j, over m;
-  // returns E_s.
-  Real evaluate(const Vec2* x, Index n, Real mass, int threads, Vec2* acc);
-  // The energy of the last call, J per m of depth.
+  // E_s of the particles at x, and for each minus its gradient over m.
+  void evaluate(const Vec2* x, Index n, Real mass, int threads);
+  // Of the last evaluation: E_s, J per m of depth, and the accelerations.
   Real energy() const { return energy_; }
-  // The node spacing and sigma' (sigma over the flat-surface sum per length).
-  Real node_spacing() const { return g_; }
-  Real scale() const { return scale_; }
+  const Vec2* accelerations() const { return acc_.data(); }
   std::size_t bytes() const;
 
  private:
@@ -66,6 +63,7 @@ class SurfaceEnergy {
 
   Wendland w_{1};
   Real scale_ = 0, g_ = 0, eps_ = 0;
+  Real gx_ = 0, gy_ = 0;  // the node spacing along x and y (g, or fitted to a period)
   Vec2 origin_{0, 0};
   PeriodicBox box_;
   // Periodic axes: the node count along them (the spacing fits the box).
@@ -78,6 +76,7 @@ class SurfaceEnergy {
   std::vector<Real> row_sums_;   // per node row: the length estimate
   std::vector<Real> vol_;        // per particle: 1 / sum_l W_H(x_j - x_l)
   std::vector<Real> gamma_;      // ... and the volume term's factor
+  std::vector<Vec2> acc_;        // ... and minus the gradient of E_s over m
   // Particles binned by position: bins of bin_x_ x bin_y_ nodes (at least H
   // each way), bx_ x by_ of them over the window.
   Index bin_x_ = 1, bin_y_ = 1, bx_ = 0, by_ = 0;
