@@ -3,6 +3,7 @@ and domain edges too, and re-sorting leaves every observable unchanged."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from reference import seed_forces
 from sphfluid import _core
 
@@ -120,11 +121,11 @@ def test_resorting_leaves_observables_unchanged():
         np.testing.assert_allclose(value, ra[name], rtol=1e-12, atol=1e-12, err_msg=name)
 
 
-def test_parallel_sort_gives_the_serial_order():
-    """From 50k particles the counting sort runs on the threads; its order (and
-    so every result) must be the serial one."""
+@pytest.mark.parametrize("n", [3_000, 60_000])
+def test_parallel_sort_gives_the_serial_order(n):
+    """From 1,000 particles the counting sort runs on the threads; its order
+    (and so every result) must be the serial one."""
     rng = np.random.default_rng(17)
-    n = 60_000
     x = rng.uniform(0.0, 3.0, (n, 2))
     runs = []
     for threads in (1, 2):
