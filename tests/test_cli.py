@@ -22,6 +22,7 @@ def test_run_every_scene_briefly(path, capsys):
     assert main(["run", str(path), "--duration", "0.01", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "particle-steps/s" in out and "max density error" in out
+    assert "max compression" in out
     assert "removed particles   0" in out
 
 

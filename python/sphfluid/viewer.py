@@ -488,7 +488,7 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
             st = sim.stats()
             status = (f"t = {sim.time:7.3f} s  {clock.get_fps():5.1f} fps  {step_rate:7,.0f} "
                       f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
-                      f"  max density error {100 * st['max_density_error']:.1f} %  dt "
+                      f"  max compression {100 * st['max_compression']:.1f} %  dt "
                       f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}  {n_steps} steps/frame"
                       + ("  PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
