@@ -5,6 +5,10 @@
 #include <stdexcept>
 #include <string>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 namespace sphfluid {
 
 namespace {
@@ -226,10 +230,63 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   gamma_.resize(n);
   Real* vol = vol_.data();
   Real* gamma = gamma_.data();
+#if defined(__AVX512F__)
+  // Without periodic axes the 3 x 3 bins around a particle are three runs of
+  // the bin order: with the positions copied in that order, eight candidates
+  // at a time, no branch (a candidate beyond H weighs exactly 0).
+  const bool runs = !box_.any();
+  if (runs) {
+    room(bin_x_pos_, static_cast<std::size_t>(n));
+    room(bin_y_pos_, static_cast<std::size_t>(n));
+    bin_x_pos_.resize(n);
+    bin_y_pos_.resize(n);
+    for (Index k = 0; k < n; ++k) {
+      bin_x_pos_[k] = x[bin_items_[k]].x();
+      bin_y_pos_[k] = x[bin_items_[k]].y();
+    }
+  }
+  const __m512d v_one = _mm512_set1_pd(1), v_zero = _mm512_setzero_pd();
+  const __m512d v_inv_h = _mm512_set1_pd(w_.inv_h);
+  // f(mask, k, dx, dy, q, a) for eight candidates from bin position k on:
+  // x_j minus their positions, q = |r| / H and a = max(1 - q, 0); mask marks
+  // the lanes that hold a candidate.
+  auto near_lanes = [&](Index j, auto f) {
+    const Index q = bin_of_[j] / bx_, p = bin_of_[j] % bx_;
+    const Index p0 = std::max<Index>(p - 1, 0), p1 = std::min<Index>(p + 1, bx_ - 1);
+    const __m512d xj = _mm512_set1_pd(x[j].x()), yj = _mm512_set1_pd(x[j].y());
+    for (Index s = std::max<Index>(q - 1, 0); s <= std::min<Index>(q + 1, by_ - 1); ++s) {
+      const Index k1 = bin_start_[s * bx_ + p1 + 1];
+      for (Index k = bin_start_[s * bx_ + p0]; k < k1; k += 8) {
+        const __mmask8 m = k1 - k >= 8 ? 0xFF : static_cast<__mmask8>((1u << (k1 - k)) - 1);
+        const __m512d dx = _mm512_sub_pd(xj, _mm512_maskz_loadu_pd(m, bin_x_pos_.data() + k));
+        const __m512d dy = _mm512_sub_pd(yj, _mm512_maskz_loadu_pd(m, bin_y_pos_.data() + k));
+        const __m512d q8 =
+            _mm512_mul_pd(_mm512_sqrt_pd(_mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy))), v_inv_h);
+        f(m, k, dx, dy, q8, _mm512_max_pd(_mm512_sub_pd(v_one, q8), v_zero));
+      }
+    }
+  };
+#else
+  [[maybe_unused]] const bool runs = false;
+#endif
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
-    const Vec2 xj = x[j];
     Real sum = 0;
+#if defined(__AVX512F__)
+    if (runs) {
+      const __m512d v_w = _mm512_set1_pd(w_.w), v_four = _mm512_set1_pd(4);
+      __m512d lanes = _mm512_setzero_pd();
+      near_lanes(j, [&](__mmask8 m, Index, __m512d, __m512d, __m512d q8, __m512d a) {
+        const __m512d a2 = _mm512_mul_pd(a, a);
+        const __m512d wv = _mm512_mul_pd(_mm512_mul_pd(v_w, _mm512_mul_pd(a2, a2)),
+                                         _mm512_fmadd_pd(v_four, q8, v_one));
+        lanes = _mm512_mask_add_pd(lanes, m, lanes, wv);
+      });
+      vol[j] = 1 / _mm512_reduce_add_pd(lanes);
+      continue;
+    }
+#endif
+    const Vec2 xj = x[j];
     for_near(j, [&](Index l) {
       const Real r2 = sep(xj, x[l]).squaredNorm();
       if (r2 < H2) sum += w_.value(std::sqrt(r2));
@@ -300,11 +357,45 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
     Real fx = 0, fy = 0, ng = 0;
+#if defined(__AVX512F__)
+    // Runs whose length is a multiple of 8 (every run without a periodic x
+    // axis): eight nodes at a time into lanes that are summed once per particle.
+    __m512d lx = _mm512_setzero_pd(), ly = _mm512_setzero_pd(), ln = _mm512_setzero_pd();
+    const __m512d iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m512d v_gx = _mm512_set1_pd(gx), v_inv_h = _mm512_set1_pd(inv_h);
+    const __m512d v_one = _mm512_set1_pd(1), v_zero = _mm512_setzero_pd();
+    const __m512d v_3inv_h = _mm512_set1_pd(3 * inv_h), v_grad = _mm512_set1_pd(grad);
+    const __m512d v_tiny = _mm512_set1_pd(1e-300);
+#endif
     visit_rows(x[j], 0, ny, [&](std::size_t c0, Index count, Real rx0, Real dy) {
       const Real* ncx = nxs + c0;
       const Real* ncy = nys + c0;
+#if defined(__AVX512F__)
+      if (count % 8 == 0) {
+        const __m512d v_dy = _mm512_set1_pd(dy), v_dy2 = _mm512_set1_pd(dy * dy);
+        const __m512d v_rx0 = _mm512_set1_pd(rx0);
+        for (Index i = 0; i < count; i += 8) {
+          const __m512d rx =
+              _mm512_fmadd_pd(_mm512_add_pd(_mm512_set1_pd(Real(i)), iota), v_gx, v_rx0);
+          const __m512d rl = _mm512_sqrt_pd(_mm512_fmadd_pd(rx, rx, v_dy2));
+          const __m512d om = _mm512_max_pd(_mm512_fnmadd_pd(rl, v_inv_h, v_one), v_zero);
+          const __m512d cx = _mm512_loadu_pd(ncx + i), cy = _mm512_loadu_pd(ncy + i);
+          const __m512d rd = _mm512_fmadd_pd(rx, cx, _mm512_mul_pd(v_dy, cy));
+          const __m512d t =
+              _mm512_div_pd(_mm512_mul_pd(v_3inv_h, rd), _mm512_max_pd(rl, v_tiny));
+          const __m512d c2 = _mm512_mul_pd(v_grad, _mm512_mul_pd(om, om));
+          lx = _mm512_fmadd_pd(c2, _mm512_fmsub_pd(om, cx, _mm512_mul_pd(t, rx)), lx);
+          ly = _mm512_fmadd_pd(c2, _mm512_fmsub_pd(om, cy, _mm512_mul_pd(t, v_dy)), ly);
+          ln = _mm512_fmadd_pd(_mm512_mul_pd(c2, om), rd, ln);
+        }
+        return;
+      }
+#endif
       const Real dy2 = dy * dy;
-#pragma omp simd reduction(+ : fx, fy, ng)
+      // Sums of the row in locals (reduced straight into the references, the
+      // vector loop's lanes were added one by one through memory).
+      Real sx = 0, sy = 0, sn = 0;
+#pragma omp simd reduction(+ : sx, sy, sn)
       for (Index i = 0; i < count; ++i) {
         const Real rx = rx0 + i * gx;
         const Real rl = std::sqrt(rx * rx + dy2);
@@ -312,20 +403,50 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
         const Real rd = rx * ncx[i] + dy * ncy[i];
         const Real t = 3 * rd * inv_h / std::max(rl, Real(1e-300));
         const Real c2 = grad * om * om;
-        fx += c2 * (om * ncx[i] - t * rx);
-        fy += c2 * (om * ncy[i] - t * dy);
-        ng += c2 * om * rd;
+        sx += c2 * (om * ncx[i] - t * rx);
+        sy += c2 * (om * ncy[i] - t * dy);
+        sn += c2 * om * rd;
       }
+      fx += sx;
+      fy += sy;
+      ng += sn;
     });
+#if defined(__AVX512F__)
+    fx += _mm512_reduce_add_pd(lx);
+    fy += _mm512_reduce_add_pd(ly);
+    ng += _mm512_reduce_add_pd(ln);
+#endif
     acc[j] = Vec2(fx, fy) * (k_area * vol[j] / mass);
     gamma[j] = k_area * vol[j] * vol[j] * ng;
   }
   // Through the volumes: sum_l (gamma_j + gamma_l) grad W_H(x_j - x_l) / m.
+#if defined(__AVX512F__)
+  if (runs) {
+    room(bin_gamma_, static_cast<std::size_t>(n));
+    bin_gamma_.resize(n);
+    for (Index k = 0; k < n; ++k) bin_gamma_[k] = gamma[bin_items_[k]];
+  }
+#endif
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
     const Vec2 xj = x[j];
     const Real gj = gamma[j];
     Vec2 f = Vec2::Zero();
+#if defined(__AVX512F__)
+    if (runs) {  // (gamma_j + gamma_l) grad (1 - q)^3 r, eight candidates at a time
+      const __m512d v_gj = _mm512_set1_pd(gj), v_grad = _mm512_set1_pd(w_.grad);
+      __m512d lx = _mm512_setzero_pd(), ly = _mm512_setzero_pd();
+      near_lanes(j, [&](__mmask8 m, Index k, __m512d dx, __m512d dy, __m512d, __m512d a) {
+        const __m512d g = _mm512_add_pd(v_gj, _mm512_maskz_loadu_pd(m, bin_gamma_.data() + k));
+        const __m512d c = _mm512_mul_pd(_mm512_mul_pd(g, v_grad),
+                                        _mm512_mul_pd(_mm512_mul_pd(a, a), a));
+        lx = _mm512_mask3_fmadd_pd(c, dx, lx, m);
+        ly = _mm512_mask3_fmadd_pd(c, dy, ly, m);
+      });
+      acc[j] += Vec2(_mm512_reduce_add_pd(lx), _mm512_reduce_add_pd(ly)) / mass;
+      continue;
+    }
+#endif
     for_near(j, [&](Index l) {
       const Vec2 r = sep(xj, x[l]);
       const Real r2 = r.squaredNorm();
@@ -337,7 +458,8 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
 
 std::size_t SurfaceEnergy::bytes() const {
   return (node_x_.capacity() + node_y_.capacity() + row_sums_.capacity() + vol_.capacity() +
-          gamma_.capacity()) *
+          gamma_.capacity() + bin_x_pos_.capacity() + bin_y_pos_.capacity() +
+          bin_gamma_.capacity()) *
              sizeof(Real) +
          acc_.capacity() * sizeof(Vec2) +
          (bin_start_.capacity() + bin_items_.capacity() + bin_of_.capacity() +

@@ -82,6 +82,8 @@ class SurfaceEnergy {
   Index bin_x_ = 1, bin_y_ = 1, bx_ = 0, by_ = 0;
   Index run_ = 8;  // nodes per row visited around a particle (non-periodic x)
   std::vector<Index> bin_start_, bin_items_, bin_of_, bin_fill_;
+  // Without periodic axes: positions and gamma in bin order (bin_items_).
+  std::vector<Real> bin_x_pos_, bin_y_pos_, bin_gamma_;
 };
 
 }  // namespace sphfluid
