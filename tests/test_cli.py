@@ -121,3 +121,15 @@ def test_view_runs_headless_and_saves_a_screenshot(tmp_path):
     # Some pixels carry the particle colours (blue dominant), most the background.
     blue = (pixels[:, 2] > 150) & (pixels[:, 0] < 120)
     assert blue.sum() > 500
+
+
+def test_stress_full_write_without_the_scenes_is_refused_before_running(tmp_path, capsys):
+    """--full --write would replace the report's section without its bundled
+    scenes: refused at once, the file untouched."""
+    report = tmp_path / "STABILITY.md"
+    report.write_text("kept\n")
+    code = main(["stress", "--full", "--out", str(tmp_path), "--write", str(report),
+                 "--scenes", str(tmp_path / "missing")])
+    assert code == 2
+    assert "--scenes DIR" in capsys.readouterr().err
+    assert report.read_text() == "kept\n"

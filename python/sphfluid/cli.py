@@ -123,7 +123,8 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--write", type=Path, help="write the table into this Markdown file")
     s.add_argument("--scenes", type=Path, default=Path("scenes"),
                    help="with --full, also run every scene in this folder as shipped and with "
-                        "each method (default: ./scenes, skipped when absent)")
+                        "each method (default: ./scenes; skipped when absent, and then "
+                        "--write is refused)")
 
     from .validation.cases import CASES, METHODS
 

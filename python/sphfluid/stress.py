@@ -281,10 +281,20 @@ def main(args) -> int:
     max_wall = 600.0 if full else 30.0
     tank_steps = 1_000_000 if full else 20_000
     out_dir = args.out
-    out_dir.mkdir(parents=True, exist_ok=True)
 
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
+
+    if full and not args.scenes.is_dir():
+        if args.write:
+            # Checked before the run: the report would replace the section
+            # without its bundled-scenes table, after tens of minutes.
+            log(f"error: no scene folder {args.scenes}: --full --write needs the bundled "
+                "scenes (run from the repository, or pass --scenes DIR)")
+            return 2
+        log(f"no scene folder {args.scenes}: the bundled scenes will be skipped "
+            "(--scenes DIR to run them)")
+    out_dir.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
     sections = []
@@ -357,8 +367,6 @@ def main(args) -> int:
                           "| scene | method, step | outcome | steps | simulated s | wall s |",
                           "|---|---|---|---:|---:|---:|"]
             scene_rows += [row(name, how, o) for (name, how), o in bundled.items()] + [""]
-        else:
-            log(f"no scene folder {args.scenes}: the bundled scenes are skipped")
 
     command = "sphfluid stress " + ("--full" if full else "--quick") + f" --out {out_dir}"
     report = "\n".join([
