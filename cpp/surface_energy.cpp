@@ -359,11 +359,11 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
     Real fx = 0, fy = 0, ng = 0;
 #if defined(__AVX512F__)
     // Runs whose length is a multiple of 8 (every run without a periodic x
-    // axis): eight nodes at a time into lanes that are summed once per particle.
+    // axis, and any other run of such a length): eight nodes at a time into
+    // lanes that are summed once per particle.
     __m512d lx = _mm512_setzero_pd(), ly = _mm512_setzero_pd(), ln = _mm512_setzero_pd();
     const __m512d iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
-    const __m512d v_gx = _mm512_set1_pd(gx), v_inv_h = _mm512_set1_pd(inv_h);
-    const __m512d v_one = _mm512_set1_pd(1), v_zero = _mm512_setzero_pd();
+    const __m512d v_gx = _mm512_set1_pd(gx);  // v_inv_h, v_one, v_zero: above
     const __m512d v_3inv_h = _mm512_set1_pd(3 * inv_h), v_grad = _mm512_set1_pd(grad);
     const __m512d v_tiny = _mm512_set1_pd(1e-300);
 #endif

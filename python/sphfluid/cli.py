@@ -226,8 +226,8 @@ def _run(args) -> int:
         frame_times = {round(every * k, 12) for k in range(1, int(duration / every + 1e-9) + 1)}
     bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
     frames = 0
-    max_err = sim.stats()["max_density_error"]
-    max_comp = sim.stats()["max_compression"]
+    st = sim.stats()
+    max_err, max_comp = st["max_density_error"], st["max_compression"]
     particle_steps = 0
     start = time.perf_counter()
 
@@ -285,9 +285,10 @@ def _run(args) -> int:
     print(f"particle-steps/s    {particle_steps / max(wall, 1e-9):,.0f}")
     print(f"particles           {sim.n_particles:,}")
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
-    print(f"max compression     {max_comp:.4f} (max rho/rho0 - 1 over 100 samples)")
-    print(f"max density error   {max_err:.4f} (max |rho/rho0 - 1|, the same samples; at a free "
-          "surface the summed density falls short)")
+    print(f"max compression     {max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
+          "0 if none is above rho0)")
+    print(f"max density error   {max_err:.4f} (largest |rho/rho0 - 1| of the same states; at a "
+          "free surface the summed density falls short)")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
     if sim.retried_steps:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
