@@ -133,3 +133,18 @@ def test_stress_full_write_without_the_scenes_is_refused_before_running(tmp_path
     assert code == 2
     assert "--scenes DIR" in capsys.readouterr().err
     assert report.read_text() == "kept\n"
+
+
+def test_bench_with_surface_tension_times_the_tensed_dam_break(capsys):
+    from sphfluid import Simulation
+    from sphfluid.bench import bench_scene
+
+    scene = bench_scene(300, "wcsph", 5.0)
+    assert scene["fluid"]["surface_tension"] == 5.0
+    assert Simulation(scene).scene.surface_tension == 5.0
+    assert "surface_tension" not in bench_scene(300, "wcsph")["fluid"]
+    assert main(["bench", "--particles", "300", "--steps", "3", "--warmup", "1", "--threads", "1",
+                 "--repeat", "1", "--method", "wcsph", "--surface-tension", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "--surface-tension 5`" in out and "max compression" in out
+    assert main(["bench", "--surface-tension", "-1"]) == 2

@@ -91,6 +91,9 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
     b.add_argument("--method", choices=("seed", "wcsph"), default="seed",
                    help="the method to time (the same fixed dt for both)")
+    b.add_argument("--surface-tension", type=float, default=0.0, metavar="SIGMA",
+                   help="surface tension coefficient in N/m (default 0: the dam break as "
+                        "bundled; with it, what a scene with tension costs)")
     b.add_argument("--repeat", type=_count, default=3,
                    help="runs per thread count, interleaved; the median is reported")
     b.add_argument("--write", type=Path, help="write the table into this Markdown file")
