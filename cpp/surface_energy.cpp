@@ -21,6 +21,14 @@ void room(std::vector<T>& v, std::size_t n) {
   if (v.capacity() < n) v.reserve(n + n / 4);
 }
 
+// Whether the volumes and their pair term run eight candidates at a time over
+// runs of the bin order (AVX-512, and no periodic axis; see evaluate).
+#if defined(__AVX512F__)
+constexpr bool kVectorRuns = true;
+#else
+constexpr bool kVectorRuns = false;
+#endif
+
 // The nodes of a periodic axis of length len at about spacing g: a whole
 // number of them, so that the lattice wraps onto itself.
 Index periodic_nodes(Real len, Real g) {
@@ -124,7 +132,22 @@ void SurfaceEnergy::bin_particles(const Vec2* x, Index n) {
   for (std::size_t k = 1; k < bin_start_.size(); ++k) bin_start_[k] += bin_start_[k - 1];
   bin_items_.resize(n);
   bin_fill_.assign(bin_start_.begin(), bin_start_.end() - 1);
-  for (Index i = 0; i < n; ++i) bin_items_[bin_fill_[bin_of_[i]]++] = i;  // in index order
+  // The vector loops read the positions in bin order: copied on the way.
+  const bool copy = kVectorRuns && !box_.any();
+  if (copy) {
+    room(bin_x_pos_, static_cast<std::size_t>(n));
+    room(bin_y_pos_, static_cast<std::size_t>(n));
+    bin_x_pos_.resize(n);
+    bin_y_pos_.resize(n);
+  }
+  for (Index i = 0; i < n; ++i) {  // in index order within a bin
+    const Index k = bin_fill_[bin_of_[i]]++;
+    bin_items_[k] = i;
+    if (copy) {
+      bin_x_pos_[k] = x[i].x();
+      bin_y_pos_[k] = x[i].y();
+    }
+  }
 }
 
 void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
@@ -230,21 +253,11 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   gamma_.resize(n);
   Real* vol = vol_.data();
   Real* gamma = gamma_.data();
-#if defined(__AVX512F__)
   // Without periodic axes the 3 x 3 bins around a particle are three runs of
-  // the bin order: with the positions copied in that order, eight candidates
-  // at a time, no branch (a candidate beyond H weighs exactly 0).
-  const bool runs = !box_.any();
-  if (runs) {
-    room(bin_x_pos_, static_cast<std::size_t>(n));
-    room(bin_y_pos_, static_cast<std::size_t>(n));
-    bin_x_pos_.resize(n);
-    bin_y_pos_.resize(n);
-    for (Index k = 0; k < n; ++k) {
-      bin_x_pos_[k] = x[bin_items_[k]].x();
-      bin_y_pos_[k] = x[bin_items_[k]].y();
-    }
-  }
+  // the bin order: with the positions in that order (bin_particles), eight
+  // candidates at a time, no branch (a candidate beyond H weighs exactly 0).
+  [[maybe_unused]] const bool runs = kVectorRuns && !box_.any();
+#if defined(__AVX512F__)
   const __m512d v_one = _mm512_set1_pd(1), v_zero = _mm512_setzero_pd();
   const __m512d v_inv_h = _mm512_set1_pd(w_.inv_h);
   // f(mask, k, dx, dy, q, a) for eight candidates from bin position k on:
@@ -266,8 +279,6 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
       }
     }
   };
-#else
-  [[maybe_unused]] const bool runs = false;
 #endif
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {

@@ -148,3 +148,4 @@ def test_bench_with_surface_tension_times_the_tensed_dam_break(capsys):
     out = capsys.readouterr().out
     assert "--surface-tension 5`" in out and "max compression" in out
     assert main(["bench", "--surface-tension", "-1"]) == 2
+    assert main(["bench", "--suite", "--surface-tension", "5"]) == 2

@@ -241,7 +241,7 @@ def main(args) -> int:
     if args.repeat < 1:
         print("error: --repeat must be >= 1", file=sys.stderr)
         return 2
-    sigma = getattr(args, "surface_tension", 0.0)
+    sigma = args.surface_tension
     if not (math.isfinite(sigma) and sigma >= 0):
         print(f"error: --surface-tension must be a finite number >= 0, got {sigma}",
               file=sys.stderr)

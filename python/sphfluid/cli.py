@@ -166,6 +166,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "record":
             return _record(args)
         if args.command == "bench":
+            if args.surface_tension and (args.suite or args.draw or args.guard_cost):
+                print("error: --surface-tension applies to the plain dam-break timing only, "
+                      "not to --suite, --draw or --guard-cost", file=sys.stderr)
+                return EXIT_BAD_INPUT
             if args.suite:
                 from .bench_suite import main as suite_main
 

@@ -343,6 +343,7 @@ def main(args) -> int:
             log(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                 f"{o.wall:.1f} s")
     count(violent)
+
     def row(first: str, second: str, o: Outcome) -> str:
         return (f"| {first} | {second} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
                 f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
