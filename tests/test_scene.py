@@ -152,6 +152,8 @@ def test_the_contract_example_loads():
     }
     scene = sphfluid.load_scene(example)
     pos, vel = scene.lattice_points()
+    assert scene.name == "Dam break, 1 x 2 m column"  # once lost to a loop variable
+    assert scene.to_dict()["name"] == example["name"]
     assert len(scene.walls) == 3
     # The rectangle alone is 50 x 100 lattice points; the circle moves down.
     assert ((pos[:, 0] < 1.0) & (pos[:, 1] < 2.0)).sum() == 5000

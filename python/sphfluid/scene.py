@@ -475,16 +475,16 @@ class _Validator:
                           f"{h:g} m, more than the {MAX_DOMAIN_CELLS:.0e} the cell grid allows; "
                           "shrink the domain to where the fluid can go")
         if lo and hi and h:
-            for axis, name, extent in ((0, "x", "wide"), (1, "y", "high")):
+            for axis, axis_name, extent in ((0, "x", "wide"), (1, "y", "high")):
                 if periodic[axis] and hi[axis] - lo[axis] < 2 * h:
-                    self.fail("domain.periodic", f"a periodic {name} axis needs a domain at "
+                    self.fail("domain.periodic", f"a periodic {axis_name} axis needs a domain at "
                               f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
                               f"{hi[axis] - lo[axis]:g} m")
                 elif (periodic[axis] and method == "wcsph" and sigma and dx
                       and hi[axis] - lo[axis] < 4 * h + dx / 2):
                     # cpp/surface_energy.hpp: the colour field's support is 2 h
                     self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
-                              f"{name} axis at least 4 smoothing lengths plus half a spacing "
+                              f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
                               f"({4 * h + dx / 2:g} m) {extent}, got {hi[axis] - lo[axis]:g} m")
         if method == "wcsph" and sigma and dx and h:
             # cpp/surface_energy.hpp: the surface energy is summed on nodes dx/2
