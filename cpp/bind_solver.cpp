@@ -162,7 +162,10 @@ void bind_solver(py::module_& m) {
           "set_walls", [](Solver& s, const InArray& walls) { s.set_walls(bind::to_segments(walls)); },
           py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.")
       .def_property("threads", &Solver::threads, &Solver::set_threads,
-                    "OpenMP threads used by the step")
+                    "OpenMP threads the step may use (0: OpenMP default)")
+      .def_property_readonly("threads_in_use", &Solver::team,
+                             "threads the step's loops use now: `threads`, or 1 below 1,000 "
+                             "particles, where a second thread costs more than it gains")
       .def(
           "phase_seconds",
           [](const Solver& s) {

@@ -15,7 +15,7 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   // cannot put two points closer than cell_size two cells apart (with up to
   // ~1e7 cells along an axis).
   cell_size *= 1 + 1e-8;
-  const int nt = n >= kParallelMin ? threads : 1;
+  const int nt = threads_for(n, threads);
   Real lx = 0, ly = 0, hx = 0, hy = 0;
   if (n > 0) {
     lx = hx = x[0].x();

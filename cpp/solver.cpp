@@ -122,7 +122,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
 // Wall ghosts of every particle, found once per step and reused by every pass.
 void Solver::find_ghosts(bool interior_only) {
   const Vec2* x = ps_.x.data();
-  ghosts_.build(size(), threads_, [&](Index i, Chunk<Vec2>& out) {
+  ghosts_.build(size(), team(), [&](Index i, Chunk<Vec2>& out) {
     walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
@@ -267,7 +267,7 @@ Real Solver::choose_dt(Real dt_cap) {
   const Vec2* v = ps_.v.data();
   const Vec2* a = ps_.a.data();
   Real v2 = 0, a2 = 0;
-#pragma omp parallel for schedule(static) num_threads(threads_) reduction(max : v2, a2)
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(max : v2, a2)
   for (Index i = 0; i < n; ++i) {
     v2 = std::max(v2, v[i].squaredNorm());
     a2 = std::max(a2, a[i].squaredNorm());
@@ -350,15 +350,15 @@ template <bool Periodic, bool Once, class KernelOfR2>
 void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   static_assert(!(Periodic && Once), "the periodic seams keep full lists");
   const Index n = size();
-  grid_.sort(ps_.x.data(), n, params_.h, threads_, order_, box_);
-  ps_.permute_state(order_, n >= CellGrid::kParallelMin ? threads_ : 1);
+  grid_.sort(ps_.x.data(), n, params_.h, team(), order_, box_);
+  ps_.permute_state(order_, team());
   mark(kSort);
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
   half_lists_ = Once;
   if constexpr (Periodic) {
-    grid_.neighbours_periodic(x, n, params_.h, threads_, box_, nbrs_,
+    grid_.neighbours_periodic(x, n, params_.h, team(), box_, nbrs_,
                               [&](Index i, const Index* nbr, Index count) {
                                 const Vec2 xi = x[i];
                                 Real sum = self;
@@ -368,11 +368,11 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
                               });
   } else if constexpr (Once) {
     // rho[] carries the weights within a block until each row is done.
-    grid_.neighbours_once(x, n, params_.h, threads_, pair_block(), nbrs_, rho, w,
+    grid_.neighbours_once(x, n, params_.h, team(), pair_block(), nbrs_, rho, w,
                           [&](Index i, Real sum) { rho[i] = m * (self + sum); });
   } else {
     // The sum over the neighbours is taken while the grid filters them.
-    grid_.neighbours(x, n, params_.h, threads_, nbrs_, w,
+    grid_.neighbours(x, n, params_.h, team(), nbrs_, w,
                      [&](Index i, const Index*, Index, Real sum) { rho[i] = m * (self + sum); });
   }
   mark(kNeighbours);
@@ -403,7 +403,7 @@ void Solver::compute_density() {
   Real* inv_rho = inv_rho_.data();
   const Real k = params_.k, rho0 = params_.rho0;
   [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
-#pragma omp parallel for schedule(static) num_threads(threads_)
+#pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     Real r = rho[i];
     if constexpr ((F & kWalls) != 0) {
@@ -448,7 +448,7 @@ void Solver::seed_pairs_once() {
     lap_c = lap_c_.data();
   }
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
-#pragma omp parallel for schedule(static) num_threads(threads_)
+#pragma omp parallel for schedule(static) num_threads(team())
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
     std::fill(a + lo, a + hi, Vec2::Zero());
@@ -530,7 +530,7 @@ void Solver::compute_accelerations() {
   // colour field's sums) hold the pair sums when the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
   if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
-#pragma omp parallel for schedule(static) num_threads(threads_)
+#pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
     const Real pi = p[i], rhoi = rho[i];
@@ -602,7 +602,7 @@ void Solver::integrate(Real dt, Real kick) {
   const Real v2_max = guard ? v_max * v_max : inf;
   bool bad = false;
   Real v2_sum = 0;
-#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad) \
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
     reduction(+ : v2_sum)
   for (Index i = 0; i < n; ++i) {
     const Vec2 x_old = x[i];
@@ -693,7 +693,7 @@ void Solver::remove_outside_domain() {
   const Vec2 lo = params_.domain_min, hi = params_.domain_max;
   auto inside = [&](const Vec2& p) { return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all(); };
   Index first_out = n;
-#pragma omp parallel for schedule(static) num_threads(n >= CellGrid::kParallelMin ? threads_ : 1) \
+#pragma omp parallel for schedule(static) num_threads(team()) \
     reduction(min : first_out)
   for (Index i = 0; i < n; ++i)
     if (!inside(x[i])) first_out = std::min(first_out, i);

@@ -95,6 +95,9 @@ class Solver {
   std::int64_t removed() const { return removed_; }
   int threads() const { return threads_; }
   void set_threads(int threads);
+  // The threads of the step's loops: threads(), or one below kParallelMin
+  // particles (parallel.hpp).
+  int team() const { return threads_for(size(), threads_); }
   const std::array<double, kNumPhases>& phase_seconds() const { return phase_seconds_; }
   void reset_phase_seconds() { phase_seconds_.fill(0.0); }
   // Heap bytes held by the solver's arrays (capacity included), by part.

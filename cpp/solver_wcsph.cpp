@@ -75,7 +75,7 @@ void Solver::wcsph_pairs_once() {
   const Index block = pair_block(), blocks = (n + block - 1) / block;
   if (!half_lists_ || nbrs_.rows() != n)
     throw std::logic_error("the pair-once loop needs this evaluation's half lists");
-#pragma omp parallel for schedule(static) num_threads(threads_)
+#pragma omp parallel for schedule(static) num_threads(team())
   for (Index b = 0; b < blocks; ++b) {
     const Index lo = b * block, hi = std::min(n, lo + block);
     std::fill(a + lo, a + hi, Vec2::Zero());
@@ -130,7 +130,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   }
 
   if constexpr ((F & kSurfaceTension) != 0) {
-    surface_.evaluate(ps_.x.data(), n, P.mass, threads_);
+    surface_.evaluate(ps_.x.data(), n, P.mass, team());
     mark(kForces);
   }
   const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
@@ -141,7 +141,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   inv_rho_.resize(n);
   Real* por2 = p_over_rho2_.data();
   Real* inv_rho = inv_rho_.data();
-#pragma omp parallel for schedule(static) num_threads(threads_)
+#pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     Real rho_i = rho[i];
     if constexpr ((F & kWalls) != 0) {
@@ -181,7 +181,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   const bool kick = half > 0;
   Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;
   bool bad = false;
-#pragma omp parallel for schedule(static) num_threads(threads_) reduction(|| : bad)
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad)
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i], vi = v[i];
     const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];

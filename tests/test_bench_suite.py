@@ -38,5 +38,9 @@ def test_tables_show_efficiency_against_one_thread():
     assert "failed" in bench_suite.throughput_table([{"kind": "dam", "method": "seed",
                                                       "threads": 2, "target": 1000,
                                                       "error": "over the time limit"}])
+    # A small scene asked for 2 threads runs on 1: no efficiency, and said so.
+    small = bench_suite.throughput_table([one, dict(two, in_use=1, steps_per_s=100.0)])
+    assert "| 2 (1 in use) |" in small and "%" not in small
+    assert "| 2 (1 in use) |" in bench_suite.phase_table([dict(two, in_use=1)])
     assert bench_suite.steps_for(1_000_000) == (5, 20)
     assert bench_suite.steps_for(1_000)[1] == 2000

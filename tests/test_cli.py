@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+import sphfluid
 from conftest import BASE_SCENE, SCENES
 from sphfluid.cli import main
 
@@ -149,3 +150,19 @@ def test_bench_with_surface_tension_times_the_tensed_dam_break(capsys):
     assert "--surface-tension 5`" in out and "max compression" in out
     assert main(["bench", "--surface-tension", "-1"]) == 2
     assert main(["bench", "--suite", "--surface-tension", "5"]) == 2
+
+
+def test_bench_says_when_a_small_scene_steps_on_one_thread(capsys):
+    """Below 1,000 particles the 2-thread row runs on one: the table says so."""
+    from sphfluid.bench import run_case
+
+    assert run_case(300, 2, 2, 0)["in_use"] == 1
+    if not sphfluid.has_openmp:
+        return
+    assert main(["bench", "--particles", "300", "--steps", "2", "--warmup", "1", "--threads",
+                 "1,2", "--repeat", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "| 2 (1 in use) |" in out and "below 1,000 particles" in out
+    assert main(["bench", "--particles", "1200", "--steps", "2", "--warmup", "1", "--threads",
+                 "2", "--repeat", "1"]) == 0
+    assert "in use" not in capsys.readouterr().out

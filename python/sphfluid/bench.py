@@ -148,7 +148,8 @@ def run_case(n_target: int, threads: int, steps: int, warmup: int, method: str =
     wall = time.perf_counter() - start
     phases = sim._solver.phase_seconds()
     t_star, z, z_ref = front_error(sim)
-    return {"threads": threads, "particles": n, "steps": steps, "wall": wall,
+    return {"threads": threads, "in_use": sim.threads_in_use, "particles": n, "steps": steps,
+            "wall": wall,
             "steps_per_s": steps / wall, "pps": steps * n / wall,
             "ns_per_ps": 1e9 * wall / (steps * n),
             "phases_us": {k: 1e6 * v / steps for k, v in phases.items()},
@@ -183,7 +184,7 @@ def table(rows: list[dict], command: str) -> str:
     base = rows[0]["wall"]
     for r in rows:
         lines.append(
-            f"| {r['threads']} | {r['particles']:,} | {r['steps']:,} | {r['wall']:.3f} | "
+            f"| {thread_label(r)} | {r['particles']:,} | {r['steps']:,} | {r['wall']:.3f} | "
             f"{r['steps_per_s']:,.0f} | {r['range'][0]:,.0f}–{r['range'][1]:,.0f} | "
             f"{r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | "
             f"{base / r['wall']:.2f} | {r['Z']:.2f} ({r['Z_ref']:.2f}) at {r['T']:.2f} | "
@@ -192,9 +193,19 @@ def table(rows: list[dict], command: str) -> str:
               "| threads | " + " | ".join(rows[0]["phases_us"]) + " |",
               "|---:|" + "---:|" * len(rows[0]["phases_us"])]
     for r in rows:
-        lines.append(f"| {r['threads']} | " + " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
-                     + " |")
+        phases = " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
+        lines.append(f"| {thread_label(r)} | {phases} |")
+    if any(thread_label(r) != str(r["threads"]) for r in rows):
+        lines += ["", "\"(1 in use)\": below 1,000 particles the step runs on one thread "
+                  "whatever is asked (`Simulation.threads_in_use`)."]
     return "\n".join(lines) + "\n"
+
+
+def thread_label(r: dict) -> str:
+    """The threads asked for, and those in use where fewer (small scenes)."""
+    if r.get("in_use", r["threads"]) == r["threads"]:
+        return str(r["threads"])
+    return f"{r['threads']} ({r['in_use']} in use)"
 
 
 def write_section(path: Path, text: str, tag: str = "bench") -> None:

@@ -225,7 +225,9 @@ def _run(args) -> int:
                       f"{int(math.ceil(duration / scene.time_step - 1e-9)):,} steps")
     print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
           f"{len(scene.walls)} walls, method {scene.method}, {step_text} to t = {duration:g} s, "
-          f"{sim.threads} thread(s)", file=sys.stderr)
+          f"{sim.threads} thread(s)"
+          + (f" ({sim.threads_in_use} in use below 1,000 particles)"
+             if sim.threads_in_use != sim.threads else ""), file=sys.stderr)
     # Stop at 100 sample times (progress, density error) and at every frame time.
     samples = {round(duration * k / 100, 12) for k in range(1, 101)}
     frame_times = set()

@@ -256,11 +256,22 @@ class Simulation:
 
     @property
     def threads(self) -> int:
+        """OpenMP threads the step may use (the constructor's ``threads``, or
+        OpenMP's default). Below 1,000 particles the step runs on one thread
+        whatever is set (see ``threads_in_use``)."""
         return self._solver.threads
 
     @threads.setter
     def threads(self, n: int) -> None:
         self._solver.threads = int(n)
+
+    @property
+    def threads_in_use(self) -> int:
+        """Threads the next step's loops use: ``threads``, or 1 while the scene
+        has fewer than 1,000 particles. There the pair loops are one block,
+        and a second thread's start and join cost more than it gains (seed
+        dam break at 703 particles: 7,400 steps/s on 2 threads, 14,100 on 1)."""
+        return self._solver.threads_in_use
 
     @property
     def positions(self) -> np.ndarray:
