@@ -157,6 +157,7 @@ class CellGrid {
   std::size_t n_cells() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
   // Particles of cell c (after the permutation): [cell_start(c), cell_start(c + 1)).
   Index cell_start(std::size_t c) const { return cell_start_[c]; }
+  const Index* cell_starts() const { return cell_start_.data(); }
 
  private:
   static constexpr Index kSlack = 8;  // filter_run may write 8 lanes past its hits

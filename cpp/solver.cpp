@@ -329,8 +329,11 @@ template <unsigned F>
 void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   // seed eq. 10
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
-      Kernels::Poly6OfR2{&kern_});
+  if constexpr (by_cells(F)) {
+    sort_and_sum_density_by_cells();
+  } else {
+    sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Kernels::Poly6OfR2{&kern_});
+  }
   if constexpr ((F & kWalls) != 0) {
     find_ghosts(false);
     mark(kGhosts);
@@ -357,6 +360,7 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
   half_lists_ = Once;
+  cell_pair_count_ = -1;
   if constexpr (Periodic) {
     grid_.neighbours_periodic(x, n, params_.h, team(), box_, nbrs_,
                               [&](Index i, const Index* nbr, Index count) {
@@ -378,11 +382,48 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   mark(kNeighbours);
 }
 
+// The same for the seed by cell clusters (cell_pairs.hpp): no lists; the blocks
+// of cell rows are cut afresh from the sorted particles.
+void Solver::sort_and_sum_density_by_cells() {
+#if defined(__AVX512F__)
+  if constexpr (CellPairs::kAvailable) {
+    const Index n = size();
+    grid_.sort(ps_.x.data(), n, params_.h, team(), order_, box_);
+    ps_.permute_state(order_, team());
+    mark(kSort);
+    half_lists_ = false;
+    cell_pairs_.make_blocks(grid_, n, pair_block());
+    const Kernels::Poly6OfR2 w{&kern_};
+    cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
+                                           w(Real(0)), w, ps_.rho.data(), team());
+    mark(kNeighbours);
+    return;
+  }
+#endif
+  throw std::logic_error("the cell-cluster loops need AVX-512");
+}
+
+template <bool Viscosity>
+void Solver::seed_forces_by_cells() {
+#if defined(__AVX512F__)
+  if constexpr (CellPairs::kAvailable) {
+    cell_pairs_.seed_forces<Viscosity>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
+                                       inv_rho_.data(), kern_.h,
+                                       Real(0.5) * params_.mass * kern_.spiky_grad,
+                                       params_.eta * params_.mass * kern_.visc_lap,
+                                       ps_.a.data(), team());
+    return;
+  }
+#endif
+  throw std::logic_error("the cell-cluster loops need AVX-512");
+}
+
 template void Solver::sort_and_find_neighbours<false, false>(Wendland::OfR2);
 template void Solver::sort_and_find_neighbours<false, true>(Wendland::OfR2);
 template void Solver::sort_and_find_neighbours<true, false>(Wendland::OfR2);
 
 std::int64_t Solver::neighbour_pairs() const {
+  if (cell_pair_count_ >= 0) return 2 * cell_pair_count_;
   if (!half_lists_) return nbrs_.total();
   // Each pair is in the row of its first particle (and, across blocks, also
   // in its second's): count each once, and both directions, over the rows of
@@ -529,7 +570,11 @@ void Solver::compute_accelerations() {
   // Without periodic seams, each fluid pair once: a[] (and, with tension, the
   // colour field's sums) hold the pair sums when the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
-  if constexpr (kPairsOnce) seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
+  if constexpr (by_cells(F)) {
+    seed_forces_by_cells<(F & kViscosity) != 0>();
+  } else if constexpr (kPairsOnce) {
+    seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
+  }
 #pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cell_pairs.hpp"
 #include "grid.hpp"
 #include "kernels.hpp"
 #include "params.hpp"
@@ -104,7 +105,7 @@ class Solver {
   std::vector<std::pair<std::string, std::size_t>> memory_bytes() const {
     return {{"particles", ps_.bytes()},
             {"sort", grid_.bytes() + order_.capacity() * sizeof(Index)},
-            {"neighbours", nbrs_.bytes()},
+            {"neighbours", nbrs_.bytes() + cell_pairs_.bytes()},
             {"wall ghosts", ghosts_.bytes()},
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
@@ -139,6 +140,14 @@ class Solver {
   template <unsigned F> void integrate(Real dt, Real kick);
   template <bool Periodic, bool Once, class KernelOfR2>
   void sort_and_find_neighbours(KernelOfR2 w);
+  // The seed's fluid pairs by cell clusters, without lists (cell_pairs.hpp):
+  // where AVX-512 is available, without surface tension (its colour field
+  // keeps the lists) and without periodic seams.
+  static constexpr bool by_cells(unsigned features) {
+    return CellPairs::kAvailable && (features & (kPeriodic | kSurfaceTension)) == 0;
+  }
+  void sort_and_sum_density_by_cells();
+  template <bool Viscosity> void seed_forces_by_cells();
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
   template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
     if constexpr ((F & kPeriodic) != 0) {
@@ -173,6 +182,8 @@ class Solver {
   CellGrid grid_;
   std::vector<Index> order_;
   Csr<Index> nbrs_;
+  CellPairs cell_pairs_;
+  std::int64_t cell_pair_count_ = -1;  // pairs of the last evaluation by cells, else -1
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
   std::vector<Real> p_over_rho2_; // wcsph: p / rho^2

@@ -70,6 +70,28 @@ def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_native_equals_brute_force_with_crowded_cells(threads):
+    """Cells holding many more particles than the 16 the cell-cluster loops
+    take at once (cpp/cell_pairs.hpp), empty cells and rows between clumps, and
+    coincident particles (r = 0: no pressure force between them), across
+    several blocks of cell rows."""
+    rng = np.random.default_rng(3)
+    clumps = [rng.uniform(c, c + 0.04, (60, 2)) for c in (0.1, 0.5, 1.3)]
+    x = np.vstack([rng.uniform(0.02, 1.9, (1500, 2)), rng.uniform(0.02, 0.6, (1200, 2)),
+                   *clumps])
+    x[-1] = x[-2]  # two particles at one point
+    v = rng.normal(0.0, 1.0, x.shape)
+    s = solver(x, v, np.zeros((0, 2, 2)), eta=0.4, threads=threads,
+               domain=((-1.0, -1.0), (3.0, 3.0)))
+    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
+    o = np.argsort(s.ids)
+    np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
+    np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
+    from test_grid import brute_force_pairs
+    assert s.neighbour_pairs == brute_force_pairs(x, 0.1)
+
+
 def test_momentum_is_conserved_without_gravity_walls_or_tension():
     rng = np.random.default_rng(1)
     g = np.arange(20) * 0.05

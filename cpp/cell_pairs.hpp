@@ -1,0 +1,284 @@
+// The seed's pair sums by cell clusters, without neighbour lists (AVX-512):
+// the particles of one cell against eight-lane groups of the contiguous
+// candidate runs of half the stencil, each pair once. A group's data (x, v,
+// p, 1/rho) is loaded once for all particles of the cell, and its particles'
+// shares are summed in registers and added to memory once per group.
+//
+// Half the stencil: for particle i of cell (cx, cy), the run of cells cx - 1 ..
+// cx + 1 of its own row from i + 1 on, and the same three cells of the row
+// above (both runs are contiguous in the cell-sorted storage). Each pair within
+// a block of cell rows is met once, from its lower particle; j's share goes to
+// j. A pair across two blocks (the top row of one, the bottom row of the
+// next) is met from each side, and each side keeps its own share: the first
+// row of a block also runs over the row below, for i's share alone. So every
+// sum is taken in one order whatever the thread count (each thread takes whole
+// blocks). Lanes beyond the support add exactly zero (they are masked).
+#pragma once
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "grid.hpp"
+#include "types.hpp"
+
+namespace sphfluid {
+
+class CellPairs {
+ public:
+#if defined(__AVX512F__)
+  static constexpr bool kAvailable =
+      sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double);
+#else
+  static constexpr bool kAvailable = false;
+#endif
+
+  // Cuts the grid's rows into blocks of whole rows, each about `block`
+  // particles (the cut falls where the running count passes b * block), so the
+  // blocks depend on the sorted particles alone, not on the thread count.
+  void make_blocks(const CellGrid& grid, Index n, Index block) {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    rows_.assign(1, 0);
+    Index next = block;
+    for (Index y = 1; y < ny; ++y) {
+      if (start[y * nx] >= next && start[y * nx] < n) {
+        rows_.push_back(y);
+        next = start[y * nx] + block;
+      }
+    }
+    rows_.push_back(ny);
+  }
+  Index blocks() const { return static_cast<Index>(rows_.size()) - 1; }
+  std::size_t bytes() const { return rows_.capacity() * sizeof(Index); }
+
+#if defined(__AVX512F__)
+  // rho_i = m (self + sum_j w(|r_ij|^2)) over j != i with |r_ij| < h, where
+  // w(__m512d r2) is the kernel of r^2 (zero-safe: masked lanes are dropped).
+  // Returns the number of distinct pairs.
+  template <class WeightOfR2>
+  std::int64_t density(const CellGrid& grid, const Vec2* x, Real h, Real m, Real self,
+                       WeightOfR2 w, Real* rho, int threads) const {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    const __m512d h2 = _mm512_set1_pd(h * h);
+    std::int64_t pairs = 0;
+    const Index nb = blocks();
+#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : pairs)
+    for (Index b = 0; b < nb; ++b) {
+      const Index y0 = rows_[b], y1 = rows_[b + 1];
+      std::fill(rho + start[y0 * nx], rho + start[y1 * nx], Real(0));
+      alignas(64) double acc[kCluster][8];
+      for (Index cy = y0; cy < y1; ++cy) {
+        for (Index cx = 0; cx < nx; ++cx) {
+          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
+          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
+          for (Index q0 = s0; q0 < s1; q0 += kCluster) {
+            const Index q1 = std::min(s1, q0 + kCluster), k = q1 - q0;
+            for (Index q = 0; q < k; ++q) _mm512_store_pd(acc[q], _mm512_setzero_pd());
+            auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
+              for (Index j = j0; j < j1; j += 8) {
+                const Group g(x, j, j1);
+                __m512d wj = _mm512_setzero_pd();
+                for (Index q = 0; q < k; ++q) {
+                  const Index i = q0 + q;
+                  const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                  if (!live) continue;
+                  const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
+                  const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
+                  const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+                  const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
+                  if (!in) continue;
+                  const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
+                  _mm512_store_pd(acc[q], _mm512_add_pd(_mm512_load_pd(acc[q]), wv));
+                  wj = _mm512_add_pd(wj, wv);
+                  if (count) pairs += __builtin_popcount(in);
+                }
+                if (scatter)
+                  _mm512_mask_storeu_pd(rho + j, g.lanes,
+                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
+              }
+            };
+            run(q0 + 1, runs.own_end, true, true, true);
+            run(runs.above0, runs.above1, false, runs.above_in_block, true);
+            run(runs.below0, runs.below1, false, false, false);
+            // Every pair of these particles is in now (no later cell adds to them).
+            for (Index q = 0; q < k; ++q) {
+              const Index i = q0 + q;
+              rho[i] = m * (self + (rho[i] + _mm512_reduce_add_pd(_mm512_load_pd(acc[q]))));
+            }
+          }
+        }
+      }
+    }
+    return pairs;
+  }
+
+  // The seed's pressure and viscosity pair sums (eqs. 14, 17) as force
+  // densities into a (overwritten): for i, -m (p_i + p_j) / (2 rho_j) grad
+  // W_spiky(r_ij) + eta m / rho_j lap W_visc (v_j - v_i); j's share with 1 / rho_i
+  // and r_ji = -r_ij.
+  template <bool Viscosity>
+  void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
+                   const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
+                   Vec2* a, int threads) const {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    const __m512d hv = _mm512_set1_pd(h), h2 = _mm512_set1_pd(h * h);
+    const __m512d grad_c = _mm512_set1_pd(half_m_spiky_grad);
+    [[maybe_unused]] const __m512d lap_c = _mm512_set1_pd(eta_m_visc_lap);
+    const __m512d zero = _mm512_setzero_pd();
+    // Lanes (x0, y0, x1, y1, ...) back from separate x and y registers.
+    const __m512i lo_xy = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+    const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+    const Index nb = blocks();
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index b = 0; b < nb; ++b) {
+      const Index y0 = rows_[b], y1 = rows_[b + 1];
+      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
+      alignas(64) double fx[kCluster][8], fy[kCluster][8];
+      Real* const ad = a[0].data();
+      for (Index cy = y0; cy < y1; ++cy) {
+        for (Index cx = 0; cx < nx; ++cx) {
+          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
+          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
+          for (Index q0 = s0; q0 < s1; q0 += kCluster) {
+            const Index q1 = std::min(s1, q0 + kCluster), k = q1 - q0;
+            for (Index q = 0; q < k; ++q) {
+              _mm512_store_pd(fx[q], zero);
+              _mm512_store_pd(fy[q], zero);
+            }
+            auto run = [&](Index j0, Index j1, bool own, bool scatter) {
+              for (Index j = j0; j < j1; j += 8) {
+                const Group g(x, j, j1);
+                const __m512d pj = _mm512_maskz_loadu_pd(g.lanes, p + j);
+                const __m512d irj = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
+                [[maybe_unused]] __m512d vxj, vyj;
+                if constexpr (Viscosity) {
+                  const double* vp = v[j].data();
+                  const __m512d lo = _mm512_maskz_loadu_pd(g.lo, vp);
+                  const __m512d hi = _mm512_maskz_loadu_pd(g.hi, vp + 8);
+                  vxj = _mm512_permutex2var_pd(lo, even(), hi);
+                  vyj = _mm512_permutex2var_pd(lo, odd(), hi);
+                }
+                __m512d fjx = zero, fjy = zero;
+                for (Index q = 0; q < k; ++q) {
+                  const Index i = q0 + q;
+                  const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                  if (!live) continue;
+                  // r = x_i - x_j
+                  const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
+                  const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
+                  const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+                  const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
+                  if (!in) continue;
+                  const __m512d rl = _mm512_sqrt_pd(r2), d = _mm512_sub_pd(hv, rl);
+                  // grad = spiky_grad d^2 / r for d > 0 and r > 0, else 0
+                  const __mmask8 on = in & _mm512_cmp_pd_mask(d, zero, _CMP_GT_OQ) &
+                                      _mm512_cmp_pd_mask(rl, zero, _CMP_GT_OQ);
+                  const __m512d grad = _mm512_maskz_div_pd(on, _mm512_mul_pd(d, d), rl);
+                  // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
+                  const __m512d fp = _mm512_mul_pd(
+                      _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), pj), grad_c), grad);
+                  // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
+                  __m512d tx = _mm512_sub_pd(zero, _mm512_mul_pd(fp, dx));
+                  __m512d ty = _mm512_sub_pd(zero, _mm512_mul_pd(fp, dy));
+                  if constexpr (Viscosity) {
+                    const __mmask8 pos = in & _mm512_cmp_pd_mask(d, zero, _CMP_GT_OQ);
+                    const __m512d lap = _mm512_maskz_mul_pd(pos, lap_c, d);
+                    tx = _mm512_fmadd_pd(lap, _mm512_sub_pd(vxj, _mm512_set1_pd(v[i].x())), tx);
+                    ty = _mm512_fmadd_pd(lap, _mm512_sub_pd(vyj, _mm512_set1_pd(v[i].y())), ty);
+                  }
+                  _mm512_store_pd(fx[q], _mm512_fmadd_pd(irj, tx, _mm512_load_pd(fx[q])));
+                  _mm512_store_pd(fy[q], _mm512_fmadd_pd(irj, ty, _mm512_load_pd(fy[q])));
+                  const __m512d iri = _mm512_set1_pd(inv_rho[i]);
+                  fjx = _mm512_fnmadd_pd(iri, tx, fjx);
+                  fjy = _mm512_fnmadd_pd(iri, ty, fjy);
+                }
+                if (scatter) {
+                  double* out = ad + 2 * static_cast<std::size_t>(j);
+                  const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
+                  const __m512d hi = _mm512_permutex2var_pd(fjx, hi_xy, fjy);
+                  _mm512_mask_storeu_pd(out, g.lo,
+                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lo, out), lo));
+                  _mm512_mask_storeu_pd(out + 8, g.hi,
+                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.hi, out + 8), hi));
+                }
+              }
+            };
+            run(q0 + 1, runs.own_end, true, true);
+            run(runs.above0, runs.above1, false, runs.above_in_block);
+            run(runs.below0, runs.below1, false, false);
+            for (Index q = 0; q < k; ++q) {
+              Vec2& ai = a[q0 + q];
+              ai.x() += _mm512_reduce_add_pd(_mm512_load_pd(fx[q]));
+              ai.y() += _mm512_reduce_add_pd(_mm512_load_pd(fy[q]));
+            }
+          }
+        }
+      }
+    }
+  }
+#endif
+
+ private:
+  static constexpr Index kCluster = 16;  // particles of a cell taken together
+
+  // The storage runs of cell (cx, cy) in the block of rows [y0, y1): its own
+  // row's three cells end at own_end; the row above's three cells (j's share
+  // kept when that row is in the block); the row below's, in a block's first
+  // row only (i's share alone).
+  struct Runs {
+    Index own_end, above0, above1, below0, below1;
+    bool above_in_block;
+  };
+  static Runs runs_of(const Index* start, Index nx, Index ny, Index cx, Index cy, Index y0,
+                      Index y1) {
+    const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx - 1);
+    Runs r{start[cy * nx + x1 + 1], 0, 0, 0, 0, cy + 1 < y1};
+    if (cy + 1 < ny) {
+      r.above0 = start[(cy + 1) * nx + x0];
+      r.above1 = start[(cy + 1) * nx + x1 + 1];
+    }
+    if (cy == y0 && cy > 0) {
+      r.below0 = start[(cy - 1) * nx + x0];
+      r.below1 = start[(cy - 1) * nx + x1 + 1];
+    }
+    return r;
+  }
+
+#if defined(__AVX512F__)
+  static __m512i even() { return _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14); }
+  static __m512i odd() { return _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15); }
+  // Lanes of the group at j whose particle comes after i (j + lane > i).
+  static __mmask8 after(Index i, Index j) {
+    const Index d = i + 1 - j;  // the first lane after i
+    return d <= 0 ? __mmask8(0xFF) : d >= 8 ? __mmask8(0) : static_cast<__mmask8>(0xFFu << d);
+  }
+  // Eight consecutive particles from j (fewer at the end of the run): their
+  // x and y de-interleaved, and the masks of the lanes and of the doubles.
+  struct Group {
+    __m512d x, y;
+    __mmask8 lanes, lo, hi;
+    Group(const Vec2* pos, Index j, Index j1) {
+      const Index left = j1 - j;
+      const unsigned doubles = 2u * static_cast<unsigned>(std::min<Index>(left, 8));
+      lanes = left >= 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
+      lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+      hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+      const double* p = pos[j].data();
+      const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
+      x = _mm512_permutex2var_pd(a, even(), b);
+      y = _mm512_permutex2var_pd(a, odd(), b);
+    }
+  };
+#endif
+
+  std::vector<Index> rows_;  // first cell row of each block, then ny
+};
+
+}  // namespace sphfluid
