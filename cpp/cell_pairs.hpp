@@ -176,20 +176,20 @@ class CellPairs {
                   const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
                   const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
                   if (!in) continue;
-                  const __m512d rl = _mm512_sqrt_pd(r2), d = _mm512_sub_pd(hv, rl);
-                  // grad = spiky_grad d^2 / r for d > 0 and r > 0, else 0
-                  const __mmask8 on = in & _mm512_cmp_pd_mask(d, zero, _CMP_GT_OQ) &
-                                      _mm512_cmp_pd_mask(rl, zero, _CMP_GT_OQ);
-                  const __m512d grad = _mm512_maskz_div_pd(on, _mm512_mul_pd(d, d), rl);
+                  // d = h - r, at least 0 (r may round up to just past h)
+                  const __m512d rl = _mm512_sqrt_pd(r2);
+                  const __m512d d = _mm512_max_pd(_mm512_sub_pd(hv, rl), zero);
+                  // grad = spiky_grad d^2 / r, zero at r = 0 (coincident particles)
+                  const __mmask8 nz = _mm512_mask_cmp_pd_mask(in, r2, zero, _CMP_GT_OQ);
+                  const __m512d grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
                   // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
                   const __m512d fp = _mm512_mul_pd(
                       _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), pj), grad_c), grad);
                   // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
-                  __m512d tx = _mm512_sub_pd(zero, _mm512_mul_pd(fp, dx));
-                  __m512d ty = _mm512_sub_pd(zero, _mm512_mul_pd(fp, dy));
+                  __m512d tx = _mm512_fnmadd_pd(fp, dx, zero);
+                  __m512d ty = _mm512_fnmadd_pd(fp, dy, zero);
                   if constexpr (Viscosity) {
-                    const __mmask8 pos = in & _mm512_cmp_pd_mask(d, zero, _CMP_GT_OQ);
-                    const __m512d lap = _mm512_maskz_mul_pd(pos, lap_c, d);
+                    const __m512d lap = _mm512_maskz_mul_pd(in, lap_c, d);
                     tx = _mm512_fmadd_pd(lap, _mm512_sub_pd(vxj, _mm512_set1_pd(v[i].x())), tx);
                     ty = _mm512_fmadd_pd(lap, _mm512_sub_pd(vyj, _mm512_set1_pd(v[i].y())), ty);
                   }
