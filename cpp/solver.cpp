@@ -1,7 +1,8 @@
 // The seed method's step (SPEC.md, seed pseudocode 4.3) as ordered phases, each
 // one parallel loop whose sums do not depend on the thread count: in gather form
 // (iteration i reads its neighbours and writes only particle i), or, for the
-// pair forces, over blocks of particles fixed by n alone (seed_pairs_once).
+// pair sums, over blocks fixed by the particles alone: of particles on the half
+// lists (seed_pairs_once), of cell rows by cell clusters (cell_pairs.hpp).
 #include "solver.hpp"
 
 #include <algorithm>

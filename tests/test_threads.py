@@ -1,5 +1,6 @@
 """1 and 2 threads give identical states: every loop is a per-particle gather, or
-runs over blocks of particles fixed by their number alone (the pair forces)."""
+runs over blocks fixed by the particles alone (the pair sums: blocks of particles
+on the half lists, of cell rows by cell clusters)."""
 from __future__ import annotations
 
 import json
