@@ -12,7 +12,7 @@
 // next) is met from each side, and each side keeps its own share: the first
 // row of a block also runs over the row below, for i's share alone. So every
 // sum is taken in one order whatever the thread count (each thread takes whole
-// blocks). Lanes beyond the support add exactly zero (they are masked).
+// blocks). Lanes beyond the support add exactly zero (they are masked out).
 #pragma once
 
 #if defined(__AVX512F__)
@@ -37,18 +37,18 @@ class CellPairs {
   static constexpr bool kAvailable = false;
 #endif
 
-  // Cuts the grid's rows into blocks of whole rows, each about `block`
-  // particles (the cut falls where the running count passes b * block), so the
-  // blocks depend on the sorted particles alone, not on the thread count.
+  // Cuts the grid's rows into blocks of whole rows: a block ends at the first
+  // row boundary at least `block` particles after its start, so the blocks
+  // depend on the sorted particles alone, not on the thread count.
   void make_blocks(const CellGrid& grid, Index n, Index block) {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     rows_.assign(1, 0);
-    Index next = block;
+    std::int64_t next = block;
     for (Index y = 1; y < ny; ++y) {
       if (start[y * nx] >= next && start[y * nx] < n) {
         rows_.push_back(y);
-        next = start[y * nx] + block;
+        next = std::int64_t(start[y * nx]) + block;
       }
     }
     rows_.push_back(ny);
@@ -141,7 +141,7 @@ class CellPairs {
       const Index y0 = rows_[b], y1 = rows_[b + 1];
       std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
       alignas(64) double fx[kCluster][8], fy[kCluster][8];
-      Real* const ad = a[0].data();
+      Real* const ad = reinterpret_cast<Real*>(a);
       for (Index cy = y0; cy < y1; ++cy) {
         for (Index cx = 0; cx < nx; ++cx) {
           const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
@@ -186,12 +186,15 @@ class CellPairs {
                   const __m512d fp = _mm512_mul_pd(
                       _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), pj), grad_c), grad);
                   // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
-                  __m512d tx = _mm512_fnmadd_pd(fp, dx, zero);
-                  __m512d ty = _mm512_fnmadd_pd(fp, dy, zero);
+                  // (lanes outside the support are zero by mask, not by product)
+                  __m512d tx = _mm512_maskz_fnmadd_pd(in, fp, dx, zero);
+                  __m512d ty = _mm512_maskz_fnmadd_pd(in, fp, dy, zero);
                   if constexpr (Viscosity) {
                     const __m512d lap = _mm512_maskz_mul_pd(in, lap_c, d);
-                    tx = _mm512_fmadd_pd(lap, _mm512_sub_pd(vxj, _mm512_set1_pd(v[i].x())), tx);
-                    ty = _mm512_fmadd_pd(lap, _mm512_sub_pd(vyj, _mm512_set1_pd(v[i].y())), ty);
+                    const __m512d dvx = _mm512_sub_pd(vxj, _mm512_set1_pd(v[i].x()));
+                    const __m512d dvy = _mm512_sub_pd(vyj, _mm512_set1_pd(v[i].y()));
+                    tx = _mm512_mask_fmadd_pd(lap, in, dvx, tx);
+                    ty = _mm512_mask_fmadd_pd(lap, in, dvy, ty);
                   }
                   _mm512_store_pd(fx[q], _mm512_fmadd_pd(irj, tx, _mm512_load_pd(fx[q])));
                   _mm512_store_pd(fy[q], _mm512_fmadd_pd(irj, ty, _mm512_load_pd(fy[q])));
@@ -270,7 +273,7 @@ class CellPairs {
       lanes = left >= 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
       lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
       hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
-      const double* p = pos[j].data();
+      const double* p = reinterpret_cast<const double*>(pos + j);
       const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
       x = _mm512_permutex2var_pd(a, even(), b);
       y = _mm512_permutex2var_pd(a, odd(), b);

@@ -92,6 +92,27 @@ def test_native_equals_brute_force_with_crowded_cells(threads):
     assert s.neighbour_pairs == brute_force_pairs(x, 0.1)
 
 
+@pytest.mark.parametrize("shape", ["column", "row"])
+def test_native_equals_brute_force_in_one_column_or_one_row_of_cells(shape):
+    """The grid one cell wide (nx = 1) or one cell high (ny = 1): the edges of
+    the cell-cluster loops' runs."""
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0.0, 1.0, (900, 2))
+    x[:, 0 if shape == "column" else 1] *= 0.09  # narrower than h = 0.1
+    v = rng.normal(0.0, 1.0, x.shape)
+    s = solver(x, v, np.zeros((0, 2, 2)), eta=0.4)
+    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
+    o = np.argsort(s.ids)
+    np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
+    np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
+
+
+def test_no_particles_step_without_error():
+    s = solver(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2, 2)), eta=0.4)
+    s.step(1e-4, 3)
+    assert s.densities.shape == (0,) and s.neighbour_pairs == 0
+
+
 def test_momentum_is_conserved_without_gravity_walls_or_tension():
     rng = np.random.default_rng(1)
     g = np.arange(20) * 0.05
