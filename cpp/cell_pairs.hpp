@@ -29,6 +29,68 @@
 namespace sphfluid {
 
 class CellPairs {
+ private:
+  static constexpr Index kCluster = 16;  // particles of a cell taken together
+
+  // The storage runs of cell (cx, cy) in the block of rows [y0, y1): its own
+  // row's three cells end at own_end; the row above's three cells (j's share
+  // kept when that row is in the block); the row below's, in a block's first
+  // row only (i's share alone).
+  struct Runs {
+    Index own_end, above0, above1, below0, below1;
+    bool above_in_block;
+  };
+  static Runs runs_of(const Index* start, Index nx, Index ny, Index cx, Index cy, Index y0,
+                      Index y1) {
+    const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx - 1);
+    Runs r{start[cy * nx + x1 + 1], 0, 0, 0, 0, cy + 1 < y1};
+    if (cy + 1 < ny) {
+      r.above0 = start[(cy + 1) * nx + x0];
+      r.above1 = start[(cy + 1) * nx + x1 + 1];
+    }
+    if (cy == y0 && cy > 0) {
+      r.below0 = start[(cy - 1) * nx + x0];
+      r.below1 = start[(cy - 1) * nx + x1 + 1];
+    }
+    return r;
+  }
+
+#if defined(__AVX512F__)
+  static __m512i even() { return _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14); }
+  static __m512i odd() { return _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15); }
+  // Lanes of the group at j whose particle comes after i (j + lane > i).
+  static __mmask8 after(Index i, Index j) {
+    const Index d = i + 1 - j;  // the first lane after i
+    return d <= 0 ? __mmask8(0xFF) : d >= 8 ? __mmask8(0) : static_cast<__mmask8>(0xFFu << d);
+  }
+  // Eight consecutive particles from j (fewer at the end of the run): their
+  // x and y de-interleaved, and the masks of the lanes and of the doubles.
+  struct Group {
+    __m512d x, y;
+    __mmask8 lanes, lo, hi;
+    Group(const Vec2* pos, Index j, Index j1) {
+      const Index left = j1 - j;
+      const unsigned doubles = 2u * static_cast<unsigned>(std::min<Index>(left, 8));
+      lanes = left >= 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
+      lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+      hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+      const double* p = reinterpret_cast<const double*>(pos + j);
+      const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
+      x = _mm512_permutex2var_pd(a, even(), b);
+      y = _mm512_permutex2var_pd(a, odd(), b);
+    }
+  };
+  // Another per-particle Vec2 array (velocities) for the group's particles.
+  struct Pairs8 {
+    __m512d x, y;
+  };
+  static Pairs8 deinterleave(const Vec2* v, Index j, const Group& g) {
+    const double* p = reinterpret_cast<const double*>(v + j);
+    const __m512d a = _mm512_maskz_loadu_pd(g.lo, p), b = _mm512_maskz_loadu_pd(g.hi, p + 8);
+    return {_mm512_permutex2var_pd(a, even(), b), _mm512_permutex2var_pd(a, odd(), b)};
+  }
+#endif
+
  public:
 #if defined(__AVX512F__)
   static constexpr bool kAvailable =
@@ -118,20 +180,16 @@ class CellPairs {
     return pairs;
   }
 
-  // The seed's pressure and viscosity pair sums (eqs. 14, 17) as force
-  // densities into a (overwritten): for i, -m (p_i + p_j) / (2 rho_j) grad
-  // W_spiky(r_ij) + eta m / rho_j lap W_visc (v_j - v_i); j's share with 1 / rho_i
-  // and r_ji = -r_ij.
-  template <bool Viscosity>
-  void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
-                   const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
-                   Vec2* a, int threads) const {
+  // Pair sums into a (overwritten) by the same cluster loop: pair.load(j, g)
+  // returns the per-group data of the particles j; pair.add(i, data, in, dx,
+  // dy, r2, fi, fj) adds, on the lanes in, i's share to fi and j's to fj
+  // (r = x_i - x_j).
+  template <class Pair>
+  void pair_sums(const CellGrid& grid, const Vec2* x, Real h, Vec2* a, int threads,
+                 const Pair& pair) const {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
-    const __m512d hv = _mm512_set1_pd(h), h2 = _mm512_set1_pd(h * h);
-    const __m512d grad_c = _mm512_set1_pd(half_m_spiky_grad);
-    [[maybe_unused]] const __m512d lap_c = _mm512_set1_pd(eta_m_visc_lap);
-    const __m512d zero = _mm512_setzero_pd();
+    const __m512d h2 = _mm512_set1_pd(h * h), zero = _mm512_setzero_pd();
     // Lanes (x0, y0, x1, y1, ...) back from separate x and y registers.
     const __m512i lo_xy = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
     const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
@@ -155,52 +213,21 @@ class CellPairs {
             auto run = [&](Index j0, Index j1, bool own, bool scatter) {
               for (Index j = j0; j < j1; j += 8) {
                 const Group g(x, j, j1);
-                const __m512d pj = _mm512_maskz_loadu_pd(g.lanes, p + j);
-                const __m512d irj = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
-                [[maybe_unused]] __m512d vxj, vyj;
-                if constexpr (Viscosity) {
-                  const double* vp = v[j].data();
-                  const __m512d lo = _mm512_maskz_loadu_pd(g.lo, vp);
-                  const __m512d hi = _mm512_maskz_loadu_pd(g.hi, vp + 8);
-                  vxj = _mm512_permutex2var_pd(lo, even(), hi);
-                  vyj = _mm512_permutex2var_pd(lo, odd(), hi);
-                }
+                const auto data = pair.load(j, g);
                 __m512d fjx = zero, fjy = zero;
                 for (Index q = 0; q < k; ++q) {
                   const Index i = q0 + q;
                   const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
                   if (!live) continue;
-                  // r = x_i - x_j
                   const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
                   const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
                   const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
                   const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
                   if (!in) continue;
-                  // d = h - r, at least 0 (r may round up to just past h)
-                  const __m512d rl = _mm512_sqrt_pd(r2);
-                  const __m512d d = _mm512_max_pd(_mm512_sub_pd(hv, rl), zero);
-                  // grad = spiky_grad d^2 / r, zero at r = 0 (coincident particles)
-                  const __mmask8 nz = _mm512_mask_cmp_pd_mask(in, r2, zero, _CMP_GT_OQ);
-                  const __m512d grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
-                  // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
-                  const __m512d fp = _mm512_mul_pd(
-                      _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), pj), grad_c), grad);
-                  // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
-                  // (lanes outside the support are zero by mask, not by product)
-                  __m512d tx = _mm512_maskz_fnmadd_pd(in, fp, dx, zero);
-                  __m512d ty = _mm512_maskz_fnmadd_pd(in, fp, dy, zero);
-                  if constexpr (Viscosity) {
-                    const __m512d lap = _mm512_maskz_mul_pd(in, lap_c, d);
-                    const __m512d dvx = _mm512_sub_pd(vxj, _mm512_set1_pd(v[i].x()));
-                    const __m512d dvy = _mm512_sub_pd(vyj, _mm512_set1_pd(v[i].y()));
-                    tx = _mm512_mask_fmadd_pd(lap, in, dvx, tx);
-                    ty = _mm512_mask_fmadd_pd(lap, in, dvy, ty);
-                  }
-                  _mm512_store_pd(fx[q], _mm512_fmadd_pd(irj, tx, _mm512_load_pd(fx[q])));
-                  _mm512_store_pd(fy[q], _mm512_fmadd_pd(irj, ty, _mm512_load_pd(fy[q])));
-                  const __m512d iri = _mm512_set1_pd(inv_rho[i]);
-                  fjx = _mm512_fnmadd_pd(iri, tx, fjx);
-                  fjy = _mm512_fnmadd_pd(iri, ty, fjy);
+                  __m512d fix = _mm512_load_pd(fx[q]), fiy = _mm512_load_pd(fy[q]);
+                  pair.add(i, data, in, dx, dy, r2, fix, fiy, fjx, fjy);
+                  _mm512_store_pd(fx[q], fix);
+                  _mm512_store_pd(fy[q], fiy);
                 }
                 if (scatter) {
                   double* out = ad + 2 * static_cast<std::size_t>(j);
@@ -226,61 +253,145 @@ class CellPairs {
       }
     }
   }
+
+  // The seed's pressure and viscosity pair terms (eqs. 14, 17) as force
+  // densities: for i, -m (p_i + p_j) / (2 rho_j) grad W_spiky(r_ij) + eta m /
+  // rho_j lap W_visc (v_j - v_i); for j the same with 1 / rho_i and r_ji = -r_ij.
+  template <bool Viscosity>
+  struct SeedPair {
+    const Vec2* v;
+    const Real* p;
+    const Real* inv_rho;
+    __m512d h, grad_c, lap_c;  // h, m/2 spiky_grad, eta m visc_lap
+    struct Data {
+      __m512d p, ir, vx, vy;
+    };
+    Data load(Index j, const Group& g) const {
+      Data d;
+      d.p = _mm512_maskz_loadu_pd(g.lanes, p + j);
+      d.ir = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
+      if constexpr (Viscosity) {
+        const Pairs8 vj = deinterleave(v, j, g);
+        d.vx = vj.x;
+        d.vy = vj.y;
+      }
+      return d;
+    }
+    void add(Index i, const Data& dj, __mmask8 in, __m512d dx, __m512d dy, __m512d r2,
+             __m512d& fix, __m512d& fiy, __m512d& fjx, __m512d& fjy) const {
+      const __m512d zero = _mm512_setzero_pd();
+      // d = h - r, at least 0 (r may round up to just past h)
+      const __m512d rl = _mm512_sqrt_pd(r2);
+      const __m512d d = _mm512_max_pd(_mm512_sub_pd(h, rl), zero);
+      // grad = spiky_grad d^2 / r, zero at r = 0 (coincident particles)
+      const __mmask8 nz = _mm512_mask_cmp_pd_mask(in, r2, zero, _CMP_GT_OQ);
+      const __m512d grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
+      // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
+      const __m512d fp =
+          _mm512_mul_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), dj.p), grad_c), grad);
+      // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
+      // (lanes outside the support are zero by mask, not by product)
+      __m512d tx = _mm512_maskz_fnmadd_pd(in, fp, dx, zero);
+      __m512d ty = _mm512_maskz_fnmadd_pd(in, fp, dy, zero);
+      if constexpr (Viscosity) {
+        const __m512d lap = _mm512_maskz_mul_pd(in, lap_c, d);
+        const __m512d dvx = _mm512_sub_pd(dj.vx, _mm512_set1_pd(v[i].x()));
+        const __m512d dvy = _mm512_sub_pd(dj.vy, _mm512_set1_pd(v[i].y()));
+        tx = _mm512_mask_fmadd_pd(lap, in, dvx, tx);
+        ty = _mm512_mask_fmadd_pd(lap, in, dvy, ty);
+      }
+      fix = _mm512_fmadd_pd(dj.ir, tx, fix);
+      fiy = _mm512_fmadd_pd(dj.ir, ty, fiy);
+      const __m512d iri = _mm512_set1_pd(inv_rho[i]);
+      fjx = _mm512_fnmadd_pd(iri, tx, fjx);
+      fjy = _mm512_fnmadd_pd(iri, ty, fjy);
+    }
+  };
+
+  // wcsph's pair force (solver_wcsph.cpp, wcsph_pairs_once), as
+  // accelerations: -m (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad W(r_ij), with
+  // Monaghan's Pi_ij on approaching pairs, plus Morris's viscosity; it is
+  // antisymmetric, so j gets minus what i gets.
+  template <bool Viscosity>
+  struct WcsphPair {
+    const Vec2* v;
+    const Real* rho;
+    const Real* por2;     // p / rho^2
+    const Real* inv_rho;
+    Real inv_h, grad, m, eps2, av, m_eta2;  // Wendland's 1/h and gradient factor; 2 m eta
+    struct Data {
+      __m512d rho, por2, ir, vx, vy;
+    };
+    Data load(Index j, const Group& g) const {
+      Data d;
+      d.rho = _mm512_maskz_loadu_pd(g.lanes, rho + j);
+      d.por2 = _mm512_maskz_loadu_pd(g.lanes, por2 + j);
+      if constexpr (Viscosity) d.ir = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
+      const Pairs8 vj = deinterleave(v, j, g);
+      d.vx = vj.x;
+      d.vy = vj.y;
+      return d;
+    }
+    void add(Index i, const Data& dj, __mmask8 in, __m512d dx, __m512d dy, __m512d r2,
+             __m512d& fix, __m512d& fiy, __m512d& fjx, __m512d& fjy) const {
+      const __m512d zero = _mm512_setzero_pd();
+      // grad W = grad (1 - q)^3 r, q = r / h (zero from q = 1 on)
+      const __m512d q = _mm512_mul_pd(_mm512_sqrt_pd(r2), _mm512_set1_pd(inv_h));
+      const __m512d a = _mm512_max_pd(_mm512_sub_pd(_mm512_set1_pd(1), q), zero);
+      const __m512d s = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(grad), a), a), a);
+      const __m512d gwx = _mm512_mul_pd(s, dx), gwy = _mm512_mul_pd(s, dy);
+      const __m512d vijx = _mm512_sub_pd(_mm512_set1_pd(v[i].x()), dj.vx);
+      const __m512d vijy = _mm512_sub_pd(_mm512_set1_pd(v[i].y()), dj.vy);
+      const __m512d vr = _mm512_fmadd_pd(vijx, dx, _mm512_mul_pd(vijy, dy));
+      // one division for both viscosities
+      const __m512d inv_r2e =
+          _mm512_maskz_div_pd(in, _mm512_set1_pd(1), _mm512_add_pd(r2, _mm512_set1_pd(eps2)));
+      __m512d coef = _mm512_add_pd(_mm512_set1_pd(por2[i]), dj.por2);
+      // + Pi_ij = -av vr / (r^2 + eps^2) * 2 / (rho_i + rho_j) when approaching
+      const __mmask8 closing = _mm512_mask_cmp_pd_mask(in, vr, zero, _CMP_LT_OQ);
+      if (closing) {
+        const __m512d t = _mm512_mul_pd(
+            _mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(av), vr), inv_r2e), _mm512_set1_pd(2));
+        coef = _mm512_mask_sub_pd(
+            coef, closing, coef,
+            _mm512_maskz_div_pd(closing, t, _mm512_add_pd(_mm512_set1_pd(rho[i]), dj.rho)));
+      }
+      const __m512d mc = _mm512_mul_pd(_mm512_set1_pd(m), coef);
+      __m512d fx = _mm512_maskz_fnmadd_pd(in, mc, gwx, zero);
+      __m512d fy = _mm512_maskz_fnmadd_pd(in, mc, gwy, zero);
+      if constexpr (Viscosity) {  // Morris, Fox & Zhu (1997)
+        const __m512d rgw = _mm512_fmadd_pd(dx, gwx, _mm512_mul_pd(dy, gwy));
+        const __m512d c = _mm512_mul_pd(
+            _mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(m_eta2 * inv_rho[i]), dj.ir), rgw),
+            inv_r2e);
+        fx = _mm512_mask3_fmadd_pd(c, vijx, fx, in);
+        fy = _mm512_mask3_fmadd_pd(c, vijy, fy, in);
+      }
+      fix = _mm512_add_pd(fix, fx);
+      fiy = _mm512_add_pd(fiy, fy);
+      fjx = _mm512_sub_pd(fjx, fx);
+      fjy = _mm512_sub_pd(fjy, fy);
+    }
+  };
+
+  template <bool Viscosity>
+  void wcsph_forces(const CellGrid& grid, const Vec2* x, Real h,
+                    const WcsphPair<Viscosity>& pair, Vec2* a, int threads) const {
+    pair_sums(grid, x, h, a, threads, pair);
+  }
+
+  template <bool Viscosity>
+  void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
+                   const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
+                   Vec2* a, int threads) const {
+    const SeedPair<Viscosity> pair{v, p, inv_rho, _mm512_set1_pd(h),
+                                   _mm512_set1_pd(half_m_spiky_grad),
+                                   _mm512_set1_pd(eta_m_visc_lap)};
+    pair_sums(grid, x, h, a, threads, pair);
+  }
 #endif
 
  private:
-  static constexpr Index kCluster = 16;  // particles of a cell taken together
-
-  // The storage runs of cell (cx, cy) in the block of rows [y0, y1): its own
-  // row's three cells end at own_end; the row above's three cells (j's share
-  // kept when that row is in the block); the row below's, in a block's first
-  // row only (i's share alone).
-  struct Runs {
-    Index own_end, above0, above1, below0, below1;
-    bool above_in_block;
-  };
-  static Runs runs_of(const Index* start, Index nx, Index ny, Index cx, Index cy, Index y0,
-                      Index y1) {
-    const Index x0 = std::max<Index>(cx - 1, 0), x1 = std::min<Index>(cx + 1, nx - 1);
-    Runs r{start[cy * nx + x1 + 1], 0, 0, 0, 0, cy + 1 < y1};
-    if (cy + 1 < ny) {
-      r.above0 = start[(cy + 1) * nx + x0];
-      r.above1 = start[(cy + 1) * nx + x1 + 1];
-    }
-    if (cy == y0 && cy > 0) {
-      r.below0 = start[(cy - 1) * nx + x0];
-      r.below1 = start[(cy - 1) * nx + x1 + 1];
-    }
-    return r;
-  }
-
-#if defined(__AVX512F__)
-  static __m512i even() { return _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14); }
-  static __m512i odd() { return _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15); }
-  // Lanes of the group at j whose particle comes after i (j + lane > i).
-  static __mmask8 after(Index i, Index j) {
-    const Index d = i + 1 - j;  // the first lane after i
-    return d <= 0 ? __mmask8(0xFF) : d >= 8 ? __mmask8(0) : static_cast<__mmask8>(0xFFu << d);
-  }
-  // Eight consecutive particles from j (fewer at the end of the run): their
-  // x and y de-interleaved, and the masks of the lanes and of the doubles.
-  struct Group {
-    __m512d x, y;
-    __mmask8 lanes, lo, hi;
-    Group(const Vec2* pos, Index j, Index j1) {
-      const Index left = j1 - j;
-      const unsigned doubles = 2u * static_cast<unsigned>(std::min<Index>(left, 8));
-      lanes = left >= 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
-      lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
-      hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
-      const double* p = reinterpret_cast<const double*>(pos + j);
-      const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
-      x = _mm512_permutex2var_pd(a, even(), b);
-      y = _mm512_permutex2var_pd(a, odd(), b);
-    }
-  };
-#endif
-
   std::vector<Index> rows_;  // first cell row of each block, then ny
 };
 

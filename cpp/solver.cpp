@@ -331,7 +331,7 @@ void Solver::evaluate_impl() {
   mark_ = std::chrono::steady_clock::now();
   // seed eq. 10
   if constexpr (by_cells(F)) {
-    sort_and_sum_density_by_cells();
+    sort_and_sum_density_by_cells(Kernels::Poly6OfR2{&kern_});
   } else {
     sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Kernels::Poly6OfR2{&kern_});
   }
@@ -385,7 +385,8 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
 
 // The same for the seed by cell clusters (cell_pairs.hpp): no lists; the blocks
 // of cell rows are cut afresh from the sorted particles.
-void Solver::sort_and_sum_density_by_cells() {
+template <class KernelOfR2>
+void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 #if defined(__AVX512F__)
   if constexpr (CellPairs::kAvailable) {
     const Index n = size();
@@ -394,15 +395,17 @@ void Solver::sort_and_sum_density_by_cells() {
     mark(kSort);
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_block());
-    const Kernels::Poly6OfR2 w{&kern_};
     cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
                                            w(Real(0)), w, ps_.rho.data(), team());
     mark(kNeighbours);
     return;
   }
 #endif
+  (void)w;
   throw std::logic_error("the cell-cluster loops need AVX-512");
 }
+
+template void Solver::sort_and_sum_density_by_cells(Wendland::OfR2);
 
 template <bool Viscosity>
 void Solver::seed_forces_by_cells() {

@@ -140,14 +140,15 @@ class Solver {
   template <unsigned F> void integrate(Real dt, Real kick);
   template <bool Periodic, bool Once, class KernelOfR2>
   void sort_and_find_neighbours(KernelOfR2 w);
-  // The seed's fluid pairs by cell clusters, without lists (cell_pairs.hpp):
-  // where AVX-512 is available, without surface tension (its colour field
-  // keeps the lists) and without periodic seams.
+  // The fluid pairs by cell clusters, without lists (cell_pairs.hpp), for
+  // both methods: where AVX-512 is available, without surface tension (the
+  // seed's colour field keeps the lists) and without periodic seams.
   static constexpr bool by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & (kPeriodic | kSurfaceTension)) == 0;
   }
-  void sort_and_sum_density_by_cells();
+  template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);
   template <bool Viscosity> void seed_forces_by_cells();
+  template <bool Viscosity> void wcsph_forces_by_cells();
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
   template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
     if constexpr ((F & kPeriodic) != 0) {

@@ -106,6 +106,24 @@ void Solver::wcsph_pairs_once() {
   }
 }
 
+// The same by cell clusters (cell_pairs.hpp), without lists.
+template <bool Viscosity>
+void Solver::wcsph_forces_by_cells() {
+#if defined(__AVX512F__)
+  if constexpr (CellPairs::kAvailable) {
+    const SimParams& P = params_;
+    const Real hs = Real(0.5) * P.h;
+    const CellPairs::WcsphPair<Viscosity> pair{
+        ps_.v.data(),       ps_.rho.data(),   p_over_rho2_.data(),    inv_rho_.data(),
+        wendland_.inv_h,    wendland_.grad,   P.mass,                 Real(0.01) * hs * hs,
+        P.alpha * P.c0 * hs, P.mass * 2 * P.eta};
+    cell_pairs_.wcsph_forces<Viscosity>(grid_, ps_.x.data(), P.h, pair, ps_.a.data(), team());
+    return;
+  }
+#endif
+  throw std::logic_error("the cell-cluster loops need AVX-512");
+}
+
 template <unsigned F>
 void Solver::wcsph_evaluate_impl() {
   wcsph_evaluate_kick<F>(0);
@@ -120,8 +138,12 @@ void Solver::wcsph_evaluate_kick(Real half) {
   const Index n = size();
   const SimParams& P = params_;
   const Wendland& W = wendland_;
-  sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(
-      Wendland::OfR2{&W});  // summation density, self included
+  // summation density, self included
+  if constexpr (by_cells(F)) {
+    sort_and_sum_density_by_cells(Wendland::OfR2{&W});
+  } else {
+    sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Wendland::OfR2{&W});
+  }
   if constexpr ((F & kWalls) != 0) {
     // Only ghosts on a segment's interior stand for a straight wall's fluid
     // side; beyond a segment's free end the reflection alone acts.
@@ -176,7 +198,11 @@ void Solver::wcsph_evaluate_kick(Real half) {
   // Without periodic seams, each fluid pair once: a[] holds the pair sums when
   // the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
-  if constexpr (kPairsOnce) wcsph_pairs_once<(F & kViscosity) != 0>();
+  if constexpr (by_cells(F)) {
+    wcsph_forces_by_cells<(F & kViscosity) != 0>();
+  } else if constexpr (kPairsOnce) {
+    wcsph_pairs_once<(F & kViscosity) != 0>();
+  }
   [[maybe_unused]] const Vec2* surface_acc = surface_.accelerations();
   const bool kick = half > 0;
   Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;

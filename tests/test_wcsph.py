@@ -41,13 +41,19 @@ def test_wendland_gradient_and_laplacian_match_finite_differences():
     assert np.abs(lap - ana).max() < 1e-4 * np.abs(ana).max()
 
 
-def check_against_brute_force(*, n, side, seed, alpha, eta, p_b=0.0, threads=0):
-    """Random particles in a square of the given side: the native densities,
+def check_against_brute_force(*, n, side, seed, alpha, eta, p_b=0.0, threads=0, clumps=0):
+    """Random particles in a square of the given side (and `clumps` of 60 in
+    squares of h/2, a coincident pair among them): the native densities,
     pressures and accelerations against tests/reference.py's; returns the
     reference pressures."""
     rng = np.random.default_rng(seed)
     h = 0.1
     x = rng.uniform(0.0, side, (n, 2))
+    if clumps:
+        corners = rng.uniform(0.0, side - h / 2, (clumps, 2))
+        x = np.vstack([x, *(c + rng.uniform(0.0, h / 2, (60, 2)) for c in corners)])
+        x[-1] = x[-2]
+        n = len(x)
     v = rng.normal(0.0, 1.0, (n, 2))
     p = _core.SimParams()
     p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, h, 0.6, 1000.0, 20.0
@@ -79,6 +85,14 @@ def test_native_wcsph_equals_brute_force_across_pair_blocks(threads):
     evaluated once (at least 1,024 particles a block), so pairs within a block
     and across blocks both occur, on one thread and on two."""
     check_against_brute_force(n=2600, side=1.3, seed=9, alpha=0.3, eta=0.5, threads=threads)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_native_wcsph_equals_brute_force_with_crowded_cells(threads):
+    """Cells of many more particles than the cell-cluster loops take at once
+    (cpp/cell_pairs.hpp) and coincident particles, across several blocks."""
+    check_against_brute_force(n=2400, side=1.3, seed=10, alpha=0.3, eta=0.5, threads=threads,
+                              clumps=3)
 
 
 def wcsph_scene(name, **fluid):
