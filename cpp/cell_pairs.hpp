@@ -1,8 +1,9 @@
-// The seed's pair sums by cell clusters, without neighbour lists (AVX-512):
-// the particles of one cell against eight-lane groups of the contiguous
-// candidate runs of half the stencil, each pair once. A group's data (x, v,
-// p, 1/rho) is loaded once for all particles of the cell, and its particles'
-// shares are summed in registers and added to memory once per group.
+// Pair sums by cell clusters, without neighbour lists (AVX-512), for the
+// density and the pair forces of both methods: the particles of one cell
+// against eight-lane groups of the contiguous candidate runs of half the
+// stencil, each pair once. A group's data (x, v, p, 1/rho) is loaded once for
+// all particles of the cell, and its particles' shares are summed in
+// registers and added to memory once per group.
 //
 // Half the stencil: for particle i of cell (cx, cy), the run of cells cx - 1 ..
 // cx + 1 of its own row from i + 1 on, and the same three cells of the row
