@@ -268,7 +268,7 @@ class CellPairs {
       __m512d p, ir, vx, vy;
     };
     Data load(Index j, const Group& g) const {
-      Data d;
+      Data d{};
       d.p = _mm512_maskz_loadu_pd(g.lanes, p + j);
       d.ir = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
       if constexpr (Viscosity) {
@@ -319,12 +319,18 @@ class CellPairs {
     const Real* rho;
     const Real* por2;     // p / rho^2
     const Real* inv_rho;
-    Real inv_h, grad, m, eps2, av, m_eta2;  // Wendland's 1/h and gradient factor; 2 m eta
+    // Wendland's 1/h and gradient factor, m, eps^2, alpha c0 hs, 2 m eta
+    __m512d inv_h, grad, m, eps2, av, m_eta2;
+    WcsphPair(const Vec2* v_, const Real* rho_, const Real* por2_, const Real* inv_rho_,
+              Real inv_h_, Real grad_, Real m_, Real eps2_, Real av_, Real m_eta2_)
+        : v(v_), rho(rho_), por2(por2_), inv_rho(inv_rho_), inv_h(_mm512_set1_pd(inv_h_)),
+          grad(_mm512_set1_pd(grad_)), m(_mm512_set1_pd(m_)), eps2(_mm512_set1_pd(eps2_)),
+          av(_mm512_set1_pd(av_)), m_eta2(_mm512_set1_pd(m_eta2_)) {}
     struct Data {
       __m512d rho, por2, ir, vx, vy;
     };
     Data load(Index j, const Group& g) const {
-      Data d;
+      Data d{};
       d.rho = _mm512_maskz_loadu_pd(g.lanes, rho + j);
       d.por2 = _mm512_maskz_loadu_pd(g.lanes, por2 + j);
       if constexpr (Viscosity) d.ir = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
@@ -337,34 +343,33 @@ class CellPairs {
              __m512d& fix, __m512d& fiy, __m512d& fjx, __m512d& fjy) const {
       const __m512d zero = _mm512_setzero_pd();
       // grad W = grad (1 - q)^3 r, q = r / h (zero from q = 1 on)
-      const __m512d q = _mm512_mul_pd(_mm512_sqrt_pd(r2), _mm512_set1_pd(inv_h));
+      const __m512d q = _mm512_mul_pd(_mm512_sqrt_pd(r2), inv_h);
       const __m512d a = _mm512_max_pd(_mm512_sub_pd(_mm512_set1_pd(1), q), zero);
-      const __m512d s = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(grad), a), a), a);
+      const __m512d s = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(grad, a), a), a);
       const __m512d gwx = _mm512_mul_pd(s, dx), gwy = _mm512_mul_pd(s, dy);
       const __m512d vijx = _mm512_sub_pd(_mm512_set1_pd(v[i].x()), dj.vx);
       const __m512d vijy = _mm512_sub_pd(_mm512_set1_pd(v[i].y()), dj.vy);
       const __m512d vr = _mm512_fmadd_pd(vijx, dx, _mm512_mul_pd(vijy, dy));
       // one division for both viscosities
       const __m512d inv_r2e =
-          _mm512_maskz_div_pd(in, _mm512_set1_pd(1), _mm512_add_pd(r2, _mm512_set1_pd(eps2)));
+          _mm512_maskz_div_pd(in, _mm512_set1_pd(1), _mm512_add_pd(r2, eps2));
       __m512d coef = _mm512_add_pd(_mm512_set1_pd(por2[i]), dj.por2);
       // + Pi_ij = -av vr / (r^2 + eps^2) * 2 / (rho_i + rho_j) when approaching
       const __mmask8 closing = _mm512_mask_cmp_pd_mask(in, vr, zero, _CMP_LT_OQ);
       if (closing) {
         const __m512d t = _mm512_mul_pd(
-            _mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(av), vr), inv_r2e), _mm512_set1_pd(2));
+            _mm512_mul_pd(_mm512_mul_pd(av, vr), inv_r2e), _mm512_set1_pd(2));
         coef = _mm512_mask_sub_pd(
             coef, closing, coef,
             _mm512_maskz_div_pd(closing, t, _mm512_add_pd(_mm512_set1_pd(rho[i]), dj.rho)));
       }
-      const __m512d mc = _mm512_mul_pd(_mm512_set1_pd(m), coef);
+      const __m512d mc = _mm512_mul_pd(m, coef);
       __m512d fx = _mm512_maskz_fnmadd_pd(in, mc, gwx, zero);
       __m512d fy = _mm512_maskz_fnmadd_pd(in, mc, gwy, zero);
       if constexpr (Viscosity) {  // Morris, Fox & Zhu (1997)
         const __m512d rgw = _mm512_fmadd_pd(dx, gwx, _mm512_mul_pd(dy, gwy));
-        const __m512d c = _mm512_mul_pd(
-            _mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(m_eta2 * inv_rho[i]), dj.ir), rgw),
-            inv_r2e);
+        const __m512d mi = _mm512_mul_pd(m_eta2, _mm512_set1_pd(inv_rho[i]));
+        const __m512d c = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(mi, dj.ir), rgw), inv_r2e);
         fx = _mm512_mask3_fmadd_pd(c, vijx, fx, in);
         fy = _mm512_mask3_fmadd_pd(c, vijy, fy, in);
       }

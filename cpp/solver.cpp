@@ -383,8 +383,8 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   mark(kNeighbours);
 }
 
-// The same for the seed by cell clusters (cell_pairs.hpp): no lists; the blocks
-// of cell rows are cut afresh from the sorted particles.
+// The same by cell clusters (cell_pairs.hpp), for both methods: no lists; the
+// blocks of cell rows are cut afresh from the sorted particles.
 template <class KernelOfR2>
 void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 #if defined(__AVX512F__)
@@ -574,6 +574,8 @@ void Solver::compute_accelerations() {
   // Without periodic seams, each fluid pair once: a[] (and, with tension, the
   // colour field's sums) hold the pair sums when the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
+  // The cell clusters have no minimum image: the gather loop below must stay off.
+  static_assert(!by_cells(F) || pairs_once(F));
   if constexpr (by_cells(F)) {
     seed_forces_by_cells<(F & kViscosity) != 0>();
   } else if constexpr (kPairsOnce) {

@@ -113,10 +113,11 @@ void Solver::wcsph_forces_by_cells() {
   if constexpr (CellPairs::kAvailable) {
     const SimParams& P = params_;
     const Real hs = Real(0.5) * P.h;
-    const CellPairs::WcsphPair<Viscosity> pair{
-        ps_.v.data(),       ps_.rho.data(),   p_over_rho2_.data(),    inv_rho_.data(),
-        wendland_.inv_h,    wendland_.grad,   P.mass,                 Real(0.01) * hs * hs,
-        P.alpha * P.c0 * hs, P.mass * 2 * P.eta};
+    const Real eps2 = Real(0.01) * hs * hs, av = P.alpha * P.c0 * hs;
+    const Real m_eta2 = P.mass * 2 * P.eta;
+    const CellPairs::WcsphPair<Viscosity> pair(ps_.v.data(), ps_.rho.data(), p_over_rho2_.data(),
+                                               inv_rho_.data(), wendland_.inv_h, wendland_.grad,
+                                               P.mass, eps2, av, m_eta2);
     cell_pairs_.wcsph_forces<Viscosity>(grid_, ps_.x.data(), P.h, pair, ps_.a.data(), team());
     return;
   }
@@ -198,6 +199,8 @@ void Solver::wcsph_evaluate_kick(Real half) {
   // Without periodic seams, each fluid pair once: a[] holds the pair sums when
   // the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
+  // The cell clusters have no minimum image: the gather loop below must stay off.
+  static_assert(!by_cells(F) || pairs_once(F));
   if constexpr (by_cells(F)) {
     wcsph_forces_by_cells<(F & kViscosity) != 0>();
   } else if constexpr (kPairsOnce) {
