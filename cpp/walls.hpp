@@ -3,6 +3,10 @@
 // reflection of a particle's path within one step (4.2). Pure geometry: no SPH here.
 #pragma once
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <utility>
 #include <vector>
 
@@ -75,6 +79,31 @@ class WallSet {
     const Index c = cell_of(p0);
     return c < 0 || c != cell_of(p1) || cell_start_[c] != cell_start_[c + 1];
   }
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+  // may_hit for eight paths at once: from (x0[k], y0[k]) to (x1[k], y1[k]) on
+  // the lanes of `lanes`; the lanes whose path may meet a wall.
+  __mmask8 may_hit8(__mmask8 lanes, __m512d x0, __m512d y0, __m512d x1, __m512d y1) const {
+    const __m512d ox = _mm512_set1_pd(origin_.x()), oy = _mm512_set1_pd(origin_.y());
+    const __m512d inv = _mm512_set1_pd(inv_cell_), zero = _mm512_setzero_pd();
+    const __m512d nx = _mm512_set1_pd(nx_), ny = _mm512_set1_pd(ny_);
+    auto cell = [&](__m512d x, __m512d y, __mmask8& on) {
+      const __m512d fx = _mm512_mul_pd(_mm512_sub_pd(x, ox), inv);
+      const __m512d fy = _mm512_mul_pd(_mm512_sub_pd(y, oy), inv);
+      on = _mm512_mask_cmp_pd_mask(lanes, fx, zero, _CMP_GE_OQ) &
+           _mm512_cmp_pd_mask(fy, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(fx, nx, _CMP_LT_OQ) &
+           _mm512_cmp_pd_mask(fy, ny, _CMP_LT_OQ);
+      const __m256i ix = _mm512_maskz_cvttpd_epi32(on, fx), iy = _mm512_maskz_cvttpd_epi32(on, fy);
+      return _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(nx_)), ix);
+    };
+    __mmask8 on0, on1;
+    const __m256i c0 = cell(x0, y0, on0), c1 = cell(x1, y1, on1);
+    const __mmask8 same = on0 & on1 & _mm256_cmpeq_epi32_mask(c0, c1);
+    const int* start = cell_start_.data();
+    const __m256i s0 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), same, c0, start, 4);
+    const __m256i s1 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), same, c0, start + 1, 4);
+    return lanes & ~(same & _mm256_cmpeq_epi32_mask(s0, s1));
+  }
+#endif
 
  private:
   // The lookup cell of p, or -1 off the grid.
