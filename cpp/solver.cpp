@@ -676,31 +676,34 @@ void Solver::integrate(Real dt, Real kick) {
       const __mmask8 lanes = left == 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
       const __mmask8 lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
       const __mmask8 hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
-      const std::size_t o = 2 * static_cast<std::size_t>(i0);
+      // o: particles i0 .. i0 + 3; o8: i0 + 4 .. i0 + 7, kept inside the arrays
+      // when the chunk has no such particles (hi is then empty).
+      const std::size_t o = 2 * static_cast<std::size_t>(i0), o8 = hi ? o + 8 : o;
       const __m512d x_lo = _mm512_maskz_loadu_pd(lo, xd + o);
-      const __m512d x_hi = _mm512_maskz_loadu_pd(hi, xd + o + 8);
-      // v + kick a, then x + dt v, as the scalar loop (both contract to one FMA)
+      const __m512d x_hi = _mm512_maskz_loadu_pd(hi, xd + o8);
+      // v + kick a, then x + dt v: the scalar loop's arithmetic as GCC compiles
+      // it (-ffp-contract=fast, the default with -std=gnu++17: one FMA each)
       __m512d v_lo = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(lo, ad + o),
                                      _mm512_maskz_loadu_pd(lo, vd + o));
-      __m512d v_hi = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(hi, ad + o + 8),
-                                     _mm512_maskz_loadu_pd(hi, vd + o + 8));
+      __m512d v_hi = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(hi, ad + o8),
+                                     _mm512_maskz_loadu_pd(hi, vd + o8));
       __m512d xn_lo = _mm512_fmadd_pd(dtv, v_lo, x_lo);
       __m512d xn_hi = _mm512_fmadd_pd(dtv, v_hi, x_hi);
       _mm512_mask_storeu_pd(xn + o, lo, xn_lo);
-      _mm512_mask_storeu_pd(xn + o + 8, hi, xn_hi);
+      _mm512_mask_storeu_pd(xn + o8, hi, xn_hi);
       _mm512_mask_storeu_pd(vn + o, lo, v_lo);
-      _mm512_mask_storeu_pd(vn + o + 8, hi, v_hi);
-      auto finite = [&](__m512d u) {  // u - u is 0 unless u is inf or NaN
+      _mm512_mask_storeu_pd(vn + o8, hi, v_hi);
+      auto finite = [zero](__m512d u) {  // u - u is 0 unless u is inf or NaN
         return _mm512_cmp_pd_mask(_mm512_sub_pd(u, u), zero, _CMP_EQ_OQ);
       };
       if constexpr ((F & kWalls) != 0) {
-        const __m512d nx_ = _mm512_permutex2var_pd(xn_lo, even, xn_hi);
-        const __m512d ny_ = _mm512_permutex2var_pd(xn_lo, odd, xn_hi);
-        const __m512d vx_ = _mm512_permutex2var_pd(v_lo, even, v_hi);
-        const __m512d vy_ = _mm512_permutex2var_pd(v_lo, odd, v_hi);
-        const __mmask8 ok = lanes & finite(nx_) & finite(ny_) & finite(vx_) & finite(vy_);
+        const __m512d to_x = _mm512_permutex2var_pd(xn_lo, even, xn_hi);
+        const __m512d to_y = _mm512_permutex2var_pd(xn_lo, odd, xn_hi);
+        const __m512d v_x = _mm512_permutex2var_pd(v_lo, even, v_hi);
+        const __m512d v_y = _mm512_permutex2var_pd(v_lo, odd, v_hi);
+        const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(v_x) & finite(v_y);
         const __mmask8 may = walls_.may_hit8(ok, _mm512_permutex2var_pd(x_lo, even, x_hi),
-                                             _mm512_permutex2var_pd(x_lo, odd, x_hi), nx_, ny_);
+                                             _mm512_permutex2var_pd(x_lo, odd, x_hi), to_x, to_y);
         if (may) {
           for (unsigned k = 0; k < 8; ++k) {
             if (!(may >> k & 1u)) continue;
@@ -708,9 +711,9 @@ void Solver::integrate(Real dt, Real kick) {
             walls_.collide(x[i], x_new[i], v_new[i], e);
           }
           xn_lo = _mm512_maskz_loadu_pd(lo, xn + o);
-          xn_hi = _mm512_maskz_loadu_pd(hi, xn + o + 8);
+          xn_hi = _mm512_maskz_loadu_pd(hi, xn + o8);
           v_lo = _mm512_maskz_loadu_pd(lo, vn + o);
-          v_hi = _mm512_maskz_loadu_pd(hi, vn + o + 8);
+          v_hi = _mm512_maskz_loadu_pd(hi, vn + o8);
         }
       }
       const __m512d vx = _mm512_permutex2var_pd(v_lo, even, v_hi);
@@ -730,21 +733,21 @@ void Solver::integrate(Real dt, Real kick) {
   {
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
     reduction(+ : v2_sum)
-  for (Index i = 0; i < n; ++i) {
-    const Vec2 x_old = x[i];
-    Vec2 vi = v[i] + kick * a[i];
-    Vec2 xi = x_old + dt * vi;
-    if constexpr ((F & kWalls) != 0)
-      if (xi.allFinite() && vi.allFinite() && walls_.may_hit(x_old, xi))
-        walls_.collide(x_old, xi, vi, e);
-    if constexpr ((F & kPeriodic) != 0) xi = box_.wrap(xi);
-    const Real v2 = vi.squaredNorm();
-    // Written so that NaN fails every comparison and so trips.
-    bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max);
-    v2_sum += v2;
-    x_new[i] = xi;
-    v_new[i] = vi;
-  }
+    for (Index i = 0; i < n; ++i) {
+      const Vec2 x_old = x[i];
+      Vec2 vi = v[i] + kick * a[i];
+      Vec2 xi = x_old + dt * vi;
+      if constexpr ((F & kWalls) != 0)
+        if (xi.allFinite() && vi.allFinite() && walls_.may_hit(x_old, xi))
+          walls_.collide(x_old, xi, vi, e);
+      if constexpr ((F & kPeriodic) != 0) xi = box_.wrap(xi);
+      const Real v2 = vi.squaredNorm();
+      // Written so that NaN fails every comparison and so trips.
+      bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max);
+      v2_sum += v2;
+      x_new[i] = xi;
+      v_new[i] = vi;
+    }
   }
   const Real kinetic = 0.5 * params_.mass * v2_sum;
   if (bad ||

@@ -63,3 +63,84 @@ def test_may_hit_never_skips_a_collision(tmp_path):
     out = subprocess.run([str(exe)], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "changed by collide 0" in out.stdout
+
+
+DRIVER8 = r"""
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <vector>
+#include "walls.hpp"
+using namespace sphfluid;
+
+int main() {
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+  unsigned s = 7;
+  auto rnd = [&] { s = s * 1664525u + 1013904223u; return (s >> 8) / double(1u << 24); };
+  std::vector<Segment> segs;
+  const Vec2 box[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (int k = 0; k < 4; ++k) segs.push_back(make_segment(box[k], box[(k + 1) % 4]));
+  for (int k = 0; k < 6; ++k) segs.push_back(make_segment(Vec2(rnd(), rnd()), Vec2(rnd(), rnd())));
+  const WallSet walls(segs, 0.05);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  // Points of every kind: inside, off the lookup grid, on cell edges, not finite.
+  auto point = [&](double& x, double& y) {
+    const unsigned kind = s % 9;
+    x = 1.4 * rnd() - 0.2;
+    y = 1.4 * rnd() - 0.2;
+    if (kind == 0) x = nan;
+    if (kind == 1) y = -inf;
+    if (kind == 2) x = 0.05 * std::floor(20 * x);  // on a cell line (cells of about h)
+    if (kind == 3) x = -5;                           // far off the grid
+  };
+  long checked = 0, wrong = 0;
+  for (long k = 0; k < 200000; ++k) {
+    alignas(64) double x0[8], y0[8], x1[8], y1[8];
+    for (int l = 0; l < 8; ++l) {
+      point(x0[l], y0[l]);
+      if (s % 4 == 0) {  // a short path, often within one cell
+        x1[l] = x0[l] + 0.01 * (rnd() - 0.5);
+        y1[l] = y0[l] + 0.01 * (rnd() - 0.5);
+      } else {
+        point(x1[l], y1[l]);
+      }
+    }
+    const __mmask8 lanes = static_cast<__mmask8>(s >> 5);
+    const __mmask8 got = walls.may_hit8(lanes, _mm512_load_pd(x0), _mm512_load_pd(y0),
+                                        _mm512_load_pd(x1), _mm512_load_pd(y1));
+    for (int l = 0; l < 8; ++l) {
+      const bool want = (lanes >> l & 1) && walls.may_hit(Vec2(x0[l], y0[l]), Vec2(x1[l], y1[l]));
+      wrong += want != bool(got >> l & 1);
+      ++checked;
+    }
+  }
+  std::printf("checked %ld lanes, wrong %ld\n", checked, wrong);
+  return wrong != 0;
+#else
+  std::printf("no AVX-512\n");
+  return 0;
+#endif
+}
+"""
+
+
+def test_may_hit8_agrees_with_may_hit_on_every_lane(tmp_path):
+    """The integration's eight-lane wall check (AVX-512 builds) against the
+    scalar one, lane by lane: random lane masks, points off the lookup grid,
+    on its cell lines and not finite."""
+    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
+    eigen = eigen_include()
+    if cxx is None or eigen is None:
+        pytest.skip("needs a C++ compiler and Eigen's headers (pip install cmeel-eigen)")
+    (tmp_path / "driver8.cpp").write_text(DRIVER8)
+    cpp = ROOT / "cpp"
+    exe = tmp_path / "driver8"
+    subprocess.run([cxx, "-std=c++17", "-O2", "-march=native", f"-I{cpp}", f"-isystem{eigen}",
+                    str(tmp_path / "driver8.cpp"), str(cpp / "walls.cpp"), "-o", str(exe)],
+                   check=True, capture_output=True, text=True)
+    out = subprocess.run([str(exe)], capture_output=True, text=True)
+    if "no AVX-512" in out.stdout:
+        pytest.skip("this CPU has no AVX-512 (the eight-lane check is not built)")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "wrong 0" in out.stdout
