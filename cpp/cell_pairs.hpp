@@ -93,12 +93,7 @@ class CellPairs {
 #endif
 
  public:
-#if defined(__AVX512F__)
-  static constexpr bool kAvailable =
-      sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double);
-#else
-  static constexpr bool kAvailable = false;
-#endif
+  static constexpr bool kAvailable = kVector8;
 
   // Cuts the grid's rows into blocks of whole rows: a block ends at the first
   // row boundary at least `block` particles after its start, so the blocks

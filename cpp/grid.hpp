@@ -162,12 +162,7 @@ class CellGrid {
  private:
   static constexpr Index kSlack = 8;  // filter_run may write 8 lanes past its hits
   // Whether filter_run takes eight candidates at a time (and sums the weights).
-#if defined(__AVX512F__)
-  static constexpr bool kVectorFilter =
-      sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double);
-#else
-  static constexpr bool kVectorFilter = false;
-#endif
+  static constexpr bool kVectorFilter = kVector8;
 
   // The weight sum of one particle: eight lanes where the AVX-512 filter runs,
   // and a scalar for the scalar loop.

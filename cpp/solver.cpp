@@ -345,6 +345,12 @@ void Solver::evaluate_impl() {
   mark(kForces);
 }
 
+void Solver::sort_by_cell() {
+  grid_.sort(ps_.x.data(), size(), params_.h, team(), order_, box_);
+  ps_.permute_state(order_, team());
+  mark(kSort);
+}
+
 // Sorts the particles by cell, builds the neighbour lists, and sums the fluid
 // part of each density, rho_i = m (w(0) + sum_j w(r_ij^2)), in the same pass
 // while the neighbours are in cache; w is the method's kernel of r^2. With
@@ -354,9 +360,7 @@ template <bool Periodic, bool Once, class KernelOfR2>
 void Solver::sort_and_find_neighbours(KernelOfR2 w) {
   static_assert(!(Periodic && Once), "the periodic seams keep full lists");
   const Index n = size();
-  grid_.sort(ps_.x.data(), n, params_.h, team(), order_, box_);
-  ps_.permute_state(order_, team());
-  mark(kSort);
+  sort_by_cell();
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
   const Real m = params_.mass, self = w(Real(0));
@@ -390,9 +394,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 #if defined(__AVX512F__)
   if constexpr (CellPairs::kAvailable) {
     const Index n = size();
-    grid_.sort(ps_.x.data(), n, params_.h, team(), order_, box_);
-    ps_.permute_state(order_, team());
-    mark(kSort);
+    sort_by_cell();
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_block());
     cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,

@@ -146,6 +146,7 @@ class Solver {
   static constexpr bool by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & (kPeriodic | kSurfaceTension)) == 0;
   }
+  void sort_by_cell();  // the particles into cell order (the sort phase)
   template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);
   template <bool Viscosity> void seed_forces_by_cells();
   template <bool Viscosity> void wcsph_forces_by_cells();

@@ -49,21 +49,25 @@ int main() {
 """
 
 
-def test_may_hit_never_skips_a_collision(tmp_path):
+def build_and_run(tmp_path, source, *flags):
+    """Compile a driver with walls.cpp and run it (skips without a compiler or Eigen)."""
     cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
     eigen = eigen_include()
     if cxx is None or eigen is None:
         pytest.skip("needs a C++ compiler and Eigen's headers (pip install cmeel-eigen)")
-    (tmp_path / "driver.cpp").write_text(DRIVER)
+    (tmp_path / "driver.cpp").write_text(source)
     cpp = ROOT / "cpp"
     exe = tmp_path / "driver"
-    subprocess.run([cxx, "-std=c++17", "-O2", f"-I{cpp}", f"-isystem{eigen}",
+    subprocess.run([cxx, "-std=c++17", "-O2", *flags, f"-I{cpp}", f"-isystem{eigen}",
                     str(tmp_path / "driver.cpp"), str(cpp / "walls.cpp"), "-o", str(exe)],
                    check=True, capture_output=True, text=True)
-    out = subprocess.run([str(exe)], capture_output=True, text=True)
+    return subprocess.run([str(exe)], capture_output=True, text=True)
+
+
+def test_may_hit_never_skips_a_collision(tmp_path):
+    out = build_and_run(tmp_path, DRIVER)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "changed by collide 0" in out.stdout
-
 
 DRIVER8 = r"""
 #include <cmath>
@@ -129,17 +133,7 @@ def test_may_hit8_agrees_with_may_hit_on_every_lane(tmp_path):
     """The integration's eight-lane wall check (AVX-512 builds) against the
     scalar one, lane by lane: random lane masks, points off the lookup grid,
     on its cell lines and not finite."""
-    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
-    eigen = eigen_include()
-    if cxx is None or eigen is None:
-        pytest.skip("needs a C++ compiler and Eigen's headers (pip install cmeel-eigen)")
-    (tmp_path / "driver8.cpp").write_text(DRIVER8)
-    cpp = ROOT / "cpp"
-    exe = tmp_path / "driver8"
-    subprocess.run([cxx, "-std=c++17", "-O2", "-march=native", f"-I{cpp}", f"-isystem{eigen}",
-                    str(tmp_path / "driver8.cpp"), str(cpp / "walls.cpp"), "-o", str(exe)],
-                   check=True, capture_output=True, text=True)
-    out = subprocess.run([str(exe)], capture_output=True, text=True)
+    out = build_and_run(tmp_path, DRIVER8, "-march=native")
     if "no AVX-512" in out.stdout:
         pytest.skip("this CPU has no AVX-512 (the eight-lane check is not built)")
     assert out.returncode == 0, out.stdout + out.stderr
