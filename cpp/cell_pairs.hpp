@@ -95,23 +95,27 @@ class CellPairs {
  public:
   static constexpr bool kAvailable = kVector8;
 
-  // Cuts the grid's rows into blocks of whole rows: a block ends at the first
-  // row boundary at least `block` particles after its start, so the blocks
-  // depend on the sorted particles alone, not on the thread count.
-  void make_blocks(const CellGrid& grid, Index n, Index block) {
+  // Cuts the grid's rows into at most `count` blocks of whole rows: block k
+  // starts at the first row boundary at or past k n / count particles, so the
+  // blocks hold near-equal shares and depend on the sorted particles alone,
+  // not on the thread count.
+  void make_blocks(const CellGrid& grid, Index n, Index count) {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     rows_.assign(1, 0);
-    std::int64_t next = block;
-    for (Index y = 1; y < ny; ++y) {
-      if (start[y * nx] >= next && start[y * nx] < n) {
+    Index k = 1;
+    for (Index y = 1; y < ny && k < count; ++y) {
+      const Index s = start[y * nx];
+      if (s >= n) break;
+      if (std::int64_t(s) * count >= std::int64_t(k) * n) {
         rows_.push_back(y);
-        next = std::int64_t(start[y * nx]) + block;
+        while (k < count && std::int64_t(s) * count >= std::int64_t(k) * n) ++k;
       }
     }
     rows_.push_back(ny);
   }
   Index blocks() const { return static_cast<Index>(rows_.size()) - 1; }
+  Index block_row(Index b) const { return rows_[b]; }  // first row of block b (b = blocks(): ny)
   std::size_t bytes() const { return rows_.capacity() * sizeof(Index); }
 
 #if defined(__AVX512F__)

@@ -396,7 +396,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
     const Index n = size();
     sort_by_cell();
     half_lists_ = false;
-    cell_pairs_.make_blocks(grid_, n, pair_block());
+    cell_pairs_.make_blocks(grid_, n, pair_blocks());
     cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
                                            w(Real(0)), w, ps_.rho.data(), team());
     mark(kNeighbours);

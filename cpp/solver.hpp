@@ -204,10 +204,19 @@ class Solver {
   std::chrono::steady_clock::time_point mark_;
 
   static constexpr std::size_t kRetryLog = 100;
-  // The pair-once loops' blocks: n / kPairBlocks particles, at least kPairBlockMin.
+  // The pair-once loops' blocks, a number that depends on n alone (so the sums
+  // do not depend on the thread count): one up to kPairBlockMin particles, then
+  // an even number of about kPairBlockMin each, at most kPairBlocks, so that
+  // two threads take equal shares. pair_block() is their size in particles
+  // (the list loops); the cell clusters cut as near as whole cell rows allow.
   static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024;
+  Index pair_blocks() const {
+    const Index n = size();
+    if (n <= kPairBlockMin) return 1;
+    return std::min<Index>(kPairBlocks, 2 * ((n + 2 * kPairBlockMin - 1) / (2 * kPairBlockMin)));
+  }
   Index pair_block() const {
-    return std::max<Index>(kPairBlockMin, (size() + kPairBlocks - 1) / kPairBlocks);
+    return std::max<Index>(1, (size() + pair_blocks() - 1) / pair_blocks());
   }
   bool half_lists_ = false;  // nbrs_ holds neighbours_once's half lists
   Real energy_budget_ = 0;

@@ -49,8 +49,9 @@ int main() {
 """
 
 
-def build_and_run(tmp_path, source, *flags):
-    """Compile a driver with walls.cpp and run it (skips without a compiler or Eigen)."""
+def build_and_run(tmp_path, source, *flags, units=("walls.cpp",)):
+    """Compile a driver with the given units of cpp/ (walls.cpp unless said) and run it
+    (skips without a compiler or Eigen)."""
     cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
     eigen = eigen_include()
     if cxx is None or eigen is None:
@@ -59,7 +60,7 @@ def build_and_run(tmp_path, source, *flags):
     cpp = ROOT / "cpp"
     exe = tmp_path / "driver"
     subprocess.run([cxx, "-std=c++17", "-O2", *flags, f"-I{cpp}", f"-isystem{eigen}",
-                    str(tmp_path / "driver.cpp"), str(cpp / "walls.cpp"), "-o", str(exe)],
+                    str(tmp_path / "driver.cpp"), *(str(cpp / u) for u in units), "-o", str(exe)],
                    check=True, capture_output=True, text=True)
     return subprocess.run([str(exe)], capture_output=True, text=True)
 
