@@ -132,6 +132,14 @@ class Csr {
     });
   }
 
+  // The same where fill(lo, hi, start, out) fills the rows [lo, hi) of one
+  // thread itself: start[i] = out.size() before row i's entries are appended.
+  template <class Fill>
+  void build_ranges(Index n, int threads, Fill fill) {
+    build_rows(n, threads, 1,
+               [&](Index lo, Index hi, Chunk<T>& local) { fill(lo, hi, start_.data(), local); });
+  }
+
   // The same over blocks of `block` rows, each built whole by one thread, in
   // order: emit(i, out, lo, hi) with [lo, hi) the block of row i.
   template <class Emit>

@@ -123,11 +123,44 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
 // Wall ghosts of every particle, found once per step and reused by every pass.
 void Solver::find_ghosts(bool interior_only) {
   const Vec2* x = ps_.x.data();
-  ghosts_.build(size(), team(), [&](Index i, Chunk<Vec2>& out) {
+  auto emit = [&](Index i, Chunk<Vec2>& out) {
     walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
-  });
+  };
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+  if constexpr (kVector8 && sizeof(Index) == 4) {
+    // Eight particles at a time: most lie in lookup cells that no wall comes
+    // near, and their rows are left empty in one store.
+    ghosts_.build_ranges(size(), team(), [&](Index lo, Index hi, Index* start,
+                                             Chunk<Vec2>& out) {
+      const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+      const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+      Index i = lo;
+      for (; i + 8 <= hi; i += 8) {
+        const double* p = reinterpret_cast<const double*>(x + i);
+        const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
+        const __mmask8 near = walls_.near8(0xFF, _mm512_permutex2var_pd(a, even, b),
+                                           _mm512_permutex2var_pd(a, odd, b));
+        if (!near) {
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(start + i),
+                              _mm256_set1_epi32(static_cast<Index>(out.size())));
+          continue;
+        }
+        for (Index k = 0; k < 8; ++k) {
+          start[i + k] = static_cast<Index>(out.size());
+          if (near >> k & 1) emit(i + k, out);
+        }
+      }
+      for (; i < hi; ++i) {
+        start[i] = static_cast<Index>(out.size());
+        emit(i, out);
+      }
+    });
+    return;
+  }
+#endif
+  ghosts_.build(size(), team(), emit);
 }
 
 void Solver::wrap_positions() {

@@ -83,29 +83,43 @@ class WallSet {
   // may_hit for eight paths at once: from (x0[k], y0[k]) to (x1[k], y1[k]) on
   // the lanes of `lanes`; the lanes whose path may meet a wall.
   __mmask8 may_hit8(__mmask8 lanes, __m512d x0, __m512d y0, __m512d x1, __m512d y1) const {
-    const __m512d ox = _mm512_set1_pd(origin_.x()), oy = _mm512_set1_pd(origin_.y());
-    const __m512d inv = _mm512_set1_pd(inv_cell_), zero = _mm512_setzero_pd();
-    const __m512d nx = _mm512_set1_pd(nx_), ny = _mm512_set1_pd(ny_);
-    auto cell = [&](__m512d x, __m512d y, __mmask8& on) {
-      const __m512d fx = _mm512_mul_pd(_mm512_sub_pd(x, ox), inv);
-      const __m512d fy = _mm512_mul_pd(_mm512_sub_pd(y, oy), inv);
-      on = _mm512_mask_cmp_pd_mask(lanes, fx, zero, _CMP_GE_OQ) &
-           _mm512_cmp_pd_mask(fy, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(fx, nx, _CMP_LT_OQ) &
-           _mm512_cmp_pd_mask(fy, ny, _CMP_LT_OQ);
-      const __m256i ix = _mm512_maskz_cvttpd_epi32(on, fx), iy = _mm512_maskz_cvttpd_epi32(on, fy);
-      return _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(nx_)), ix);
-    };
     __mmask8 on0, on1;
-    const __m256i c0 = cell(x0, y0, on0), c1 = cell(x1, y1, on1);
+    const __m256i c0 = cells8(lanes, x0, y0, on0), c1 = cells8(lanes, x1, y1, on1);
     const __mmask8 same = on0 & on1 & _mm256_cmpeq_epi32_mask(c0, c1);
     const int* start = cell_start_.data();
     const __m256i s0 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), same, c0, start, 4);
     const __m256i s1 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), same, c0, start + 1, 4);
     return lanes & ~(same & _mm256_cmpeq_epi32_mask(s0, s1));
   }
+  // The lanes of `lanes` whose point (x[k], y[k]) lies in a lookup cell that
+  // some wall comes near: the only points for_each_ghost may give ghosts.
+  __mmask8 near8(__mmask8 lanes, __m512d x, __m512d y) const {
+    __mmask8 on;
+    const __m256i c = cells8(lanes, x, y, on);
+    const int* start = cell_start_.data();
+    const __m256i s0 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), on, c, start, 4);
+    const __m256i s1 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), on, c, start + 1, 4);
+    return on & _mm256_cmpneq_epi32_mask(s0, s1);
+  }
 #endif
 
  private:
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+  // The lookup cells of eight points, on the lanes of `on` (those of `lanes`
+  // on the grid; cell_of's -1 elsewhere).
+  __m256i cells8(__mmask8 lanes, __m512d x, __m512d y, __mmask8& on) const {
+    const __m512d zero = _mm512_setzero_pd();
+    const __m512d inv = _mm512_set1_pd(inv_cell_);
+    const __m512d fx = _mm512_mul_pd(_mm512_sub_pd(x, _mm512_set1_pd(origin_.x())), inv);
+    const __m512d fy = _mm512_mul_pd(_mm512_sub_pd(y, _mm512_set1_pd(origin_.y())), inv);
+    on = _mm512_mask_cmp_pd_mask(lanes, fx, zero, _CMP_GE_OQ) &
+         _mm512_cmp_pd_mask(fy, zero, _CMP_GE_OQ) &
+         _mm512_cmp_pd_mask(fx, _mm512_set1_pd(nx_), _CMP_LT_OQ) &
+         _mm512_cmp_pd_mask(fy, _mm512_set1_pd(ny_), _CMP_LT_OQ);
+    const __m256i ix = _mm512_maskz_cvttpd_epi32(on, fx), iy = _mm512_maskz_cvttpd_epi32(on, fy);
+    return _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(nx_)), ix);
+  }
+#endif
   // The lookup cell of p, or -1 off the grid.
   Index cell_of(const Vec2& p) const {
     const Real fx = (p.x() - origin_.x()) * inv_cell_, fy = (p.y() - origin_.y()) * inv_cell_;

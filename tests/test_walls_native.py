@@ -99,7 +99,7 @@ int main() {
     if (kind == 2) x = 0.05 * std::floor(20 * x);  // on a cell line (cells of about h)
     if (kind == 3) x = -5;                           // far off the grid
   };
-  long checked = 0, wrong = 0;
+  long checked = 0, wrong = 0, wrong_near = 0, with_ghosts = 0, near_without = 0;
   for (long k = 0; k < 200000; ++k) {
     alignas(64) double x0[8], y0[8], x1[8], y1[8];
     for (int l = 0; l < 8; ++l) {
@@ -114,13 +114,31 @@ int main() {
     const __mmask8 lanes = static_cast<__mmask8>(s >> 5);
     const __mmask8 got = walls.may_hit8(lanes, _mm512_load_pd(x0), _mm512_load_pd(y0),
                                         _mm512_load_pd(x1), _mm512_load_pd(y1));
+    const __mmask8 near = walls.near8(lanes, _mm512_load_pd(x0), _mm512_load_pd(y0));
     for (int l = 0; l < 8; ++l) {
-      const bool want = (lanes >> l & 1) && walls.may_hit(Vec2(x0[l], y0[l]), Vec2(x1[l], y1[l]));
+      const Vec2 p0(x0[l], y0[l]);
+      const bool want = (lanes >> l & 1) && walls.may_hit(p0, Vec2(x1[l], y1[l]));
       wrong += want != bool(got >> l & 1);
       ++checked;
+      // near8: every point with a ghost is near; a near point lies in a
+      // lookup cell with walls (where may_hit of a path that stays put is true)
+      bool ghost = false;
+      walls.for_each_ghost(p0, [&](const Vec2&, bool) { ghost = true; });
+      const bool is_near = near >> l & 1;
+      if (!(lanes >> l & 1)) {
+        wrong_near += is_near;
+      } else {
+        wrong_near += (ghost && !is_near) || (is_near && !walls.may_hit(p0, p0));
+        with_ghosts += ghost;
+        near_without += is_near && !ghost;
+      }
     }
   }
   std::printf("checked %ld lanes, wrong %ld\n", checked, wrong);
+  std::printf("near8: %ld lanes with ghosts, %ld near without, wrong %ld\n", with_ghosts,
+              near_without, wrong_near);
+  wrong += wrong_near;
+  if (with_ghosts < 1000 || near_without < 1000) ++wrong;  // both sides exercised
   return wrong != 0;
 #else
   std::printf("no AVX-512\n");
@@ -133,7 +151,9 @@ int main() {
 def test_may_hit8_agrees_with_may_hit_on_every_lane(tmp_path):
     """The integration's eight-lane wall check (AVX-512 builds) against the
     scalar one, lane by lane: random lane masks, points off the lookup grid,
-    on its cell lines and not finite."""
+    on its cell lines and not finite. And the ghost search's eight-lane test
+    (near8): no point with a wall ghost is left out, and no point is taken in
+    whose lookup cell has no wall."""
     out = build_and_run(tmp_path, DRIVER8, "-march=native")
     if "no AVX-512" in out.stdout:
         pytest.skip("this CPU has no AVX-512 (the eight-lane check is not built)")
