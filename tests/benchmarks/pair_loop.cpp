@@ -7,9 +7,13 @@
 // list entry beforehand, in double or in float refined by a Newton step), each
 // pair once by cell clusters (a cell's particles against 8-lane groups of the
 // half stencil's contiguous runs, no list: what the solver runs, with the
-// square root and division or with rsqrt14 and two Newton steps), and AVX-512
-// over the full stencil's runs for each particle. First, the fluid density
-// (poly6 of r^2) by cell clusters against a sum over a full neighbour list.
+// square root and division or with rsqrt14 and two Newton steps; and probes
+// that leave out the square root and division, the viscosity, or all but the
+// traversal, to see where its time goes), the same clusters in float on 16
+// lanes (converted from the doubles per group, or from float copies), and
+// AVX-512 over the full stencil's runs for each particle. First, the fluid
+// density (poly6 of r^2) by cell clusters against a sum over a full neighbour
+// list.
 // BENCHMARKS.md, "What was tried" and "Roofline", quotes its output.
 //
 //   g++ -O3 -march=native -fno-math-errno tests/benchmarks/pair_loop.cpp -o /tmp/pair_loop
@@ -284,7 +288,13 @@ static inline __m512d rinv(__m512d r2) {  // 1/sqrt(r2), masked outside
   y = _mm512_mul_pd(y, _mm512_fnmadd_pd(h, _mm512_mul_pd(y, y), t));
   return y;
 }
-template <bool Exact>
+// What the loop does for each particle and group: all of it (Full), or, to see
+// where its time goes, without the square root and division (NoRoot: r2
+// stands in for them), without the viscosity (NoViscosity), or only the
+// traversal: loads, r^2, the masks, and the sums' loads and stores (Traversal).
+// Only Full gives the forces.
+enum class Probe { Full, NoRoot, NoViscosity, Traversal };
+template <bool Exact, Probe P = Probe::Full>
 void cluster_pairs(const Cloud& c, const Coefficients& k, double* f) {
   std::fill(f, f + 2 * c.n, 0.0);
   const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
@@ -340,8 +350,15 @@ void cluster_pairs(const Cloud& c, const Coefficients& k, double* f) {
           const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, H2, _CMP_LT_OQ) &
                               _mm512_mask_cmp_pd_mask(live, r2, zero, _CMP_GT_OQ);
           if (!in) continue;
+          if constexpr (P == Probe::Traversal) {
+            _mm512_store_pd(fix[q], _mm512_mask_add_pd(_mm512_load_pd(fix[q]), in, _mm512_load_pd(fix[q]), r2));
+            fjx = _mm512_mask_add_pd(fjx, in, fjx, r2);
+            continue;
+          }
           __m512d ir, r;
-          if constexpr (Exact) {
+          if constexpr (P == Probe::NoRoot) {
+            r = ir = r2;
+          } else if constexpr (Exact) {
             r = _mm512_sqrt_pd(r2);
             ir = _mm512_div_pd(_mm512_set1_pd(1.0), r);
           } else {
@@ -355,8 +372,14 @@ void cluster_pairs(const Cloud& c, const Coefficients& k, double* f) {
           const __m512d l = _mm512_maskz_mul_pd(in, L, d);
           const __m512d dvx = _mm512_sub_pd(vxj, _mm512_set1_pd(c.v[2 * i]));
           const __m512d dvy = _mm512_sub_pd(vyj, _mm512_set1_pd(c.v[2 * i + 1]));
-          const __m512d tx = _mm512_fmsub_pd(l, dvx, _mm512_mul_pd(pp, dx));  // l dv - pp dx
-          const __m512d ty = _mm512_fmsub_pd(l, dvy, _mm512_mul_pd(pp, dy));
+          __m512d tx, ty;
+          if constexpr (P == Probe::NoViscosity) {
+            tx = _mm512_mul_pd(pp, dx);
+            ty = _mm512_mul_pd(pp, dy);
+          } else {
+            tx = _mm512_fmsub_pd(l, dvx, _mm512_mul_pd(pp, dx));  // l dv - pp dx
+            ty = _mm512_fmsub_pd(l, dvy, _mm512_mul_pd(pp, dy));
+          }
           _mm512_store_pd(fix[q], _mm512_fmadd_pd(irj, tx, _mm512_load_pd(fix[q])));
           _mm512_store_pd(fiy[q], _mm512_fmadd_pd(irj, ty, _mm512_load_pd(fiy[q])));
           const __m512d iri = _mm512_set1_pd(c.inv_rho[i]);
@@ -374,6 +397,141 @@ void cluster_pairs(const Cloud& c, const Coefficients& k, double* f) {
     for (int q = 0; q < m; ++q) {
       f[2 * (s0 + q)] += _mm512_reduce_add_pd(_mm512_load_pd(fix[q]));
       f[2 * (s0 + q) + 1] += _mm512_reduce_add_pd(_mm512_load_pd(fiy[q]));
+    }
+  }
+}
+
+// The same cell clusters in float, 16 lanes a group. Converted: positions
+// taken relative to the cell's corner in double and rounded to float (the
+// differences keep the pair's own scale, not the domain's), v, p and 1/rho
+// rounded per group; j's share added to the double sums. Copies: from float
+// copies of x, v, p and 1/rho made beforehand (not timed; the positions
+// absolute, so their differences lose digits), the best float could do.
+std::vector<float> g_xf, g_vf, g_pf, g_irf;
+template <bool Copies>
+void cluster_pairs_f(const Cloud& c, const Coefficients& k, double* f) {
+  std::fill(f, f + 2 * c.n, 0.0);
+  const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+  const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+  const __m512i ilo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+  const __m512i ihi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m512i fe = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512i fo = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+  const __m512 H = _mm512_set1_ps(float(c.h)), H2 = _mm512_set1_ps(float(c.h * c.h)), zero = _mm512_setzero_ps();
+  const __m512 G = _mm512_set1_ps(float(k.grad * 0.5)), L = _mm512_set1_ps(float(k.eta * k.lap));
+  alignas(64) float fix[16][16], fiy[16][16];
+  float xi[16], yi[16], vxi[16], vyi[16], pi_[16], iri_[16];
+  auto tof = [](__m512d a, __m512d b) {  // 8 + 8 doubles -> 16 floats
+    return _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(a)), _mm512_cvtpd_ps(b), 1);
+  };
+  const int nc = c.nc;
+  for (int cell = 0; cell < nc * nc; ++cell) {
+    const int s0 = c.start[cell], s1 = c.start[cell + 1];
+    if (s0 == s1) continue;
+    const int m = s1 - s0;
+    const int cy = cell / nc, cx = cell % nc;
+    const double X0 = cx * c.h, Y0 = cy * c.h;
+    const __m512d ox = _mm512_set1_pd(X0), oy = _mm512_set1_pd(Y0);
+    const int r1 = c.start[cy * nc + std::min(cx + 1, nc - 1) + 1];
+    int a0 = 0, a1 = 0;
+    if (cy + 1 < nc) {
+      a0 = c.start[(cy + 1) * nc + std::max(cx - 1, 0)];
+      a1 = c.start[(cy + 1) * nc + std::min(cx + 1, nc - 1) + 1];
+    }
+    for (int q = 0; q < m; ++q) {
+      const int i = s0 + q;
+      _mm512_store_ps(fix[q], zero);
+      _mm512_store_ps(fiy[q], zero);
+      xi[q] = float(c.x[2 * i] - X0);
+      yi[q] = float(c.x[2 * i + 1] - Y0);
+      vxi[q] = float(c.v[2 * i]);
+      vyi[q] = float(c.v[2 * i + 1]);
+      pi_[q] = float(c.p[i]);
+      iri_[q] = float(c.inv_rho[i]);
+    }
+    auto run = [&](int j0, int j1, bool own) {
+      for (int j = j0; j < j1; j += 16) {
+        const int left = std::min(j1 - j, 16);
+        const __mmask16 lanes = left >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << left) - 1);
+        // the four groups of 8 doubles of j's interleaved (x, y) pairs
+        const int d0 = std::min(2 * left, 8), d1 = std::min(std::max(2 * left - 8, 0), 8),
+                  d2 = std::min(std::max(2 * left - 16, 0), 8), d3 = std::max(2 * left - 24, 0);
+        const __mmask8 m0 = (1u << d0) - 1, m1 = (1u << d1) - 1, m2 = (1u << d2) - 1, m3 = (1u << d3) - 1;
+        __m512 xj, yj, vxj, vyj, pj, irj;
+        if constexpr (Copies) {
+          const __mmask16 h0 = left >= 8 ? 0xFFFF : (1u << (2 * left)) - 1;
+          const __mmask16 h1 = left <= 8 ? 0 : (1u << (2 * (left - 8))) - 1;
+          const __m512 xa = _mm512_maskz_loadu_ps(h0, &g_xf[2 * j]), xb = _mm512_maskz_loadu_ps(h1, &g_xf[2 * j + 16]);
+          xj = _mm512_sub_ps(_mm512_permutex2var_ps(xa, fe, xb), _mm512_set1_ps(float(X0)));
+          yj = _mm512_sub_ps(_mm512_permutex2var_ps(xa, fo, xb), _mm512_set1_ps(float(Y0)));
+          const __m512 va = _mm512_maskz_loadu_ps(h0, &g_vf[2 * j]), vb = _mm512_maskz_loadu_ps(h1, &g_vf[2 * j + 16]);
+          vxj = _mm512_permutex2var_ps(va, fe, vb);
+          vyj = _mm512_permutex2var_ps(va, fo, vb);
+          pj = _mm512_maskz_loadu_ps(lanes, &g_pf[j]);
+          irj = _mm512_maskz_loadu_ps(lanes, &g_irf[j]);
+        } else {
+          const double* px = &c.x[2 * j];
+          const __m512d x0 = _mm512_maskz_loadu_pd(m0, px), x1 = _mm512_maskz_loadu_pd(m1, px + 8);
+          const __m512d x2 = _mm512_maskz_loadu_pd(m2, px + 16), x3 = _mm512_maskz_loadu_pd(m3, px + 24);
+          xj = tof(_mm512_sub_pd(_mm512_permutex2var_pd(x0, even, x1), ox),
+                   _mm512_sub_pd(_mm512_permutex2var_pd(x2, even, x3), ox));
+          yj = tof(_mm512_sub_pd(_mm512_permutex2var_pd(x0, odd, x1), oy),
+                   _mm512_sub_pd(_mm512_permutex2var_pd(x2, odd, x3), oy));
+          const double* pv = &c.v[2 * j];
+          const __m512d v0 = _mm512_maskz_loadu_pd(m0, pv), v1 = _mm512_maskz_loadu_pd(m1, pv + 8);
+          const __m512d v2 = _mm512_maskz_loadu_pd(m2, pv + 16), v3 = _mm512_maskz_loadu_pd(m3, pv + 24);
+          vxj = tof(_mm512_permutex2var_pd(v0, even, v1), _mm512_permutex2var_pd(v2, even, v3));
+          vyj = tof(_mm512_permutex2var_pd(v0, odd, v1), _mm512_permutex2var_pd(v2, odd, v3));
+          const __mmask8 l0 = lanes & 0xFF, l1 = lanes >> 8;
+          pj = tof(_mm512_maskz_loadu_pd(l0, &c.p[j]), _mm512_maskz_loadu_pd(l1, &c.p[j + 8]));
+          irj = tof(_mm512_maskz_loadu_pd(l0, &c.inv_rho[j]), _mm512_maskz_loadu_pd(l1, &c.inv_rho[j + 8]));
+        }
+        __m512 fjx = zero, fjy = zero;
+        for (int q = 0; q < m; ++q) {
+          const int i = s0 + q;
+          __mmask16 live = lanes;
+          if (own) {
+            const int d = i + 1 - j;
+            live &= d <= 0 ? 0xFFFF : d >= 16 ? 0 : static_cast<__mmask16>(0xFFFFu << d);
+            if (!live) continue;
+          }
+          const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(xi[q]), xj);
+          const __m512 dy = _mm512_sub_ps(_mm512_set1_ps(yi[q]), yj);
+          const __m512 r2 = _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy));
+          const __mmask16 in = _mm512_mask_cmp_ps_mask(live, r2, H2, _CMP_LT_OQ);
+          if (!in) continue;
+          const __mmask16 nz = _mm512_mask_cmp_ps_mask(in, r2, zero, _CMP_GT_OQ);
+          const __m512 r = _mm512_sqrt_ps(r2);
+          const __m512 d = _mm512_max_ps(_mm512_sub_ps(H, r), zero);
+          const __m512 grad = _mm512_maskz_div_ps(nz, _mm512_mul_ps(d, d), r);
+          const __m512 pp = _mm512_mul_ps(_mm512_mul_ps(_mm512_add_ps(_mm512_set1_ps(pi_[q]), pj), G), grad);
+          const __m512 l = _mm512_maskz_mul_ps(in, L, d);
+          const __m512 dvx = _mm512_sub_ps(vxj, _mm512_set1_ps(vxi[q]));
+          const __m512 dvy = _mm512_sub_ps(vyj, _mm512_set1_ps(vyi[q]));
+          const __m512 tx = _mm512_fmadd_ps(l, dvx, _mm512_maskz_fnmadd_ps(in, pp, dx, zero));
+          const __m512 ty = _mm512_fmadd_ps(l, dvy, _mm512_maskz_fnmadd_ps(in, pp, dy, zero));
+          _mm512_store_ps(fix[q], _mm512_fmadd_ps(irj, tx, _mm512_load_ps(fix[q])));
+          _mm512_store_ps(fiy[q], _mm512_fmadd_ps(irj, ty, _mm512_load_ps(fiy[q])));
+          const __m512 iri = _mm512_set1_ps(iri_[q]);
+          fjx = _mm512_fnmadd_ps(iri, tx, fjx);
+          fjy = _mm512_fnmadd_ps(iri, ty, fjy);
+        }
+        const __m512d fx0 = _mm512_cvtps_pd(_mm512_castps512_ps256(fjx));
+        const __m512d fx1 = _mm512_cvtps_pd(_mm512_extractf32x8_ps(fjx, 1));
+        const __m512d fy0 = _mm512_cvtps_pd(_mm512_castps512_ps256(fjy));
+        const __m512d fy1 = _mm512_cvtps_pd(_mm512_extractf32x8_ps(fjy, 1));
+        double* o = &f[2 * j];
+        _mm512_mask_storeu_pd(o, m0, _mm512_add_pd(_mm512_maskz_loadu_pd(m0, o), _mm512_permutex2var_pd(fx0, ilo, fy0)));
+        _mm512_mask_storeu_pd(o + 8, m1, _mm512_add_pd(_mm512_maskz_loadu_pd(m1, o + 8), _mm512_permutex2var_pd(fx0, ihi, fy0)));
+        _mm512_mask_storeu_pd(o + 16, m2, _mm512_add_pd(_mm512_maskz_loadu_pd(m2, o + 16), _mm512_permutex2var_pd(fx1, ilo, fy1)));
+        _mm512_mask_storeu_pd(o + 24, m3, _mm512_add_pd(_mm512_maskz_loadu_pd(m3, o + 24), _mm512_permutex2var_pd(fx1, ihi, fy1)));
+      }
+    };
+    run(s0, r1, true);
+    run(a0, a1, false);
+    for (int q = 0; q < m; ++q) {
+      f[2 * (s0 + q)] += _mm512_reduce_add_ps(_mm512_load_ps(fix[q]));
+      f[2 * (s0 + q) + 1] += _mm512_reduce_add_ps(_mm512_load_ps(fiy[q]));
     }
   }
 }
@@ -521,6 +679,10 @@ int main() {
       g_inv_r[q] = 1 / std::sqrt(dx * dx + dy * dy);
     }
   g_inv_rf.assign(g_inv_r.begin(), g_inv_r.end());
+  g_xf.assign(c.x.begin(), c.x.end());
+  g_vf.assign(c.v.begin(), c.v.end());
+  g_pf.assign(c.p.begin(), c.p.end());
+  g_irf.assign(c.inv_rho.begin(), c.inv_rho.end());
   struct Variant {
     const char* name;
     void (*run)(const Cloud&, const Coefficients&, double*);
@@ -552,6 +714,11 @@ int main() {
                              Variant{"once, float 1/r + Newton", symmetric_stored_f},
                              Variant{"cell clusters, sqrt + div", cluster_pairs<true>},
                              Variant{"cell clusters, rsqrt + Newton", cluster_pairs<false>},
+                             Variant{"  probe: no sqrt, no division", cluster_pairs<true, Probe::NoRoot>},
+                             Variant{"  probe: no viscosity", cluster_pairs<true, Probe::NoViscosity>},
+                             Variant{"  probe: traversal only", cluster_pairs<true, Probe::Traversal>},
+                             Variant{"clusters, float x16, converted", cluster_pairs_f<false>},
+                             Variant{"clusters, float x16, copies", cluster_pairs_f<true>},
                              Variant{"AVX-512, cell runs (no list)", cell_runs}}) {
     double best = 1e9;
     for (int rep = 0; rep < 5; ++rep) {
