@@ -106,6 +106,22 @@ class Csr {
     const Index last = i + 1 == lo_[t + 1] ? static_cast<Index>(chunks_[t].size()) : start_[i + 1];
     return {base + start_[i], base + last};
   }
+  // f(i, row(i)) for each row that holds entries, each block of rows on one
+  // thread (the blocks of the last build).
+  template <class F>
+  void for_each_nonempty_row(int threads, F f) const {
+    const int blocks = static_cast<int>(lo_.size()) - 1;
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int t = 0; t < blocks; ++t) {
+      const Index lo = lo_[t], hi = lo_[t + 1];
+      const T* base = chunks_[t].begin();
+      for (Index i = lo; i < hi; ++i) {
+        const Index b = start_[i];
+        const Index e = i + 1 == hi ? static_cast<Index>(chunks_[t].size()) : start_[i + 1];
+        if (b != e) f(i, Row<T>{base + b, base + e});
+      }
+    }
+  }
   // Heap bytes held, capacity included.
   std::size_t bytes() const {
     std::size_t sum = (start_.capacity() + lo_.capacity()) * sizeof(Index);

@@ -474,6 +474,8 @@ std::int64_t Solver::neighbour_pairs() const {
 }
 
 // Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15).
+// The ghosts' part first, for the particles that have ghosts; then the EOS for
+// all, in a loop the compiler vectorises.
 template <unsigned F>
 void Solver::compute_density() {
   const Index n = size();
@@ -482,18 +484,18 @@ void Solver::compute_density() {
   inv_rho_.resize(n);
   Real* inv_rho = inv_rho_.data();
   const Real k = params_.k, rho0 = params_.rho0;
-  [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
+  if constexpr ((F & kWalls) != 0) {
+    const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
+    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
+      Real g = 0;
+      for (const Vec2& r : ghosts) g += kern_.w_poly6(r.squaredNorm());
+      rho[i] += m_ghost * g;
+    });
+  }
 #pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
-    Real r = rho[i];
-    if constexpr ((F & kWalls) != 0) {
-      Real g = 0;
-      for (const Vec2& r : ghosts_.row(i)) g += kern_.w_poly6(r.squaredNorm());
-      r += m_ghost * g;
-      rho[i] = r;
-    }
-    p[i] = k * (r - rho0);
-    inv_rho[i] = 1 / r;
+    p[i] = k * (rho[i] - rho0);
+    inv_rho[i] = 1 / rho[i];
   }
 }
 
@@ -616,6 +618,38 @@ void Solver::compute_accelerations() {
   } else if constexpr (kPairsOnce) {
     seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
   }
+  // The wall ghosts' pressure and viscosity on particle i, subtracted from f.
+  // The pair (p_i + p_ghost) / 2 with both at the positive part of p_i: the
+  // wall pushes back as hard as the fluid presses, and never pulls.
+  [[maybe_unused]] const auto add_walls = [&](Vec2& f, Row<Vec2> ghosts, Real pi,
+                                              const Vec2& vi) {
+    const Real p_wall = std::max(pi, Real(0));
+    for (const Vec2& r : ghosts) {
+      const Real rl = r.norm();
+      f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
+      if constexpr ((F & kViscosity) != 0)
+        f -= (eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
+    }
+  };
+  if constexpr (kPairsOnce && (F & kSurfaceTension) == 0) {
+    // a[] holds the fluid pairs' force densities: the walls' share first, for
+    // the particles that have ghosts, then a = f / rho + g for all, in a loop
+    // the compiler vectorises (the same arithmetic as the loop below).
+    if constexpr ((F & kWalls) != 0) {
+      ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
+        Vec2 f = a[i];
+        add_walls(f, ghosts, p[i], v[i]);
+        a[i] = f;
+      });
+    }
+    Real* ad = reinterpret_cast<Real*>(a);
+#pragma omp parallel for schedule(static) num_threads(team())
+    for (Index i = 0; i < n; ++i) {
+      ad[2 * i] = ad[2 * i] / rho[i] + g.x();
+      ad[2 * i + 1] = ad[2 * i + 1] / rho[i] + g.y();
+    }
+    return;
+  }
 #pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
@@ -648,17 +682,7 @@ void Solver::compute_accelerations() {
         lap_c += vol * kern_.lap_poly6(r2);
       }
     }
-    if constexpr ((F & kWalls) != 0) {
-      // The pair (p_i + p_ghost) / 2 with both at the positive part of p_i:
-      // the wall pushes back as hard as the fluid presses, and never pulls.
-      const Real p_wall = std::max(pi, Real(0));
-      for (const Vec2& r : ghosts_.row(i)) {
-        const Real rl = r.norm();
-        f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
-        if constexpr ((F & kViscosity) != 0)
-          f -= (eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
-      }
-    }
+    if constexpr ((F & kWalls) != 0) add_walls(f, ghosts_.row(i), pi, vi);
     if constexpr ((F & kSurfaceTension) != 0) {
       const Real norm = normal.norm();
       if (norm > threshold) f -= (sigma * lap_c / norm) * normal;  // eq. 20
