@@ -164,19 +164,24 @@ void Solver::wcsph_evaluate_kick(Real half) {
   inv_rho_.resize(n);
   Real* por2 = p_over_rho2_.data();
   Real* inv_rho = inv_rho_.data();
-#pragma omp parallel for schedule(static) num_threads(team())
-  for (Index i = 0; i < n; ++i) {
-    Real rho_i = rho[i];
-    if constexpr ((F & kWalls) != 0) {
-      // Each ghost stands for the wall's half-plane filled with fluid at rho0:
-      // its share of the density is rho0 times the kernel's integral over it.
-      for (const Vec2& r : ghosts_.row(i)) rho_i += rho0 * W.wall_half(r.norm());
+  if constexpr ((F & kWalls) != 0) {
+    // The walls' share first, for the particles that have ghosts. Each ghost
+    // stands for the wall's half-plane filled with fluid at rho0: its share of
+    // the density is rho0 times the kernel's integral over it.
+    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
+      Real rho_i = rho[i];
+      for (const Vec2& r : ghosts) rho_i += rho0 * W.wall_half(r.norm());
       // ... and a corner's quadrant once, not twice.
-      for_each_corner(ghosts_.row(i), [&](const Vec2&, Real d1, const Vec2&, Real d2) {
+      for_each_corner(ghosts, [&](const Vec2&, Real d1, const Vec2&, Real d2) {
         rho_i -= rho0 * W.corner_half(d1, d2);
       });
       rho[i] = rho_i;
-    }
+    });
+  }
+  // The EOS for all, in a loop the compiler vectorises.
+#pragma omp parallel for schedule(static) num_threads(team())
+  for (Index i = 0; i < n; ++i) {
+    const Real rho_i = rho[i];
     // Tait, gamma = 7, plus the background pressure, clamped at 0: a free
     // surface cannot pull (negative pressures there cause the tensile
     // instability; SPlisHSPlasH's WCSPH clamps the same way). With p_b = 0 this
@@ -206,6 +211,37 @@ void Solver::wcsph_evaluate_kick(Real half) {
   } else if constexpr (kPairsOnce) {
     wcsph_pairs_once<(F & kViscosity) != 0>();
   }
+  // A ghost at the foot of the perpendicular stands for the wall's half-plane
+  // of fluid at rest with the particle's pressure (its positive part: walls
+  // push, never pull). The pressure pair summed over that half-plane is
+  // 2 p_i rho0 / rho_i^2 times the kernel's integral along the wall line,
+  // pointing away from the wall. Added to f.
+  [[maybe_unused]] const auto add_walls = [&](Vec2& f, Row<Vec2> ghosts, Real pi2, Real inv_i,
+                                              const Vec2& vi) {
+    const Real pw2 = std::max(pi2, Real(0));
+    for (const Vec2& r : ghosts) {
+      const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
+      const Vec2 gw = W.gradient(r, rl);
+      if (rl > 0) f += (2 * pw2 * rho0 * W.wall_line(rl) / rl) * r;
+      const Real vr = vi.dot(r);
+      if (vr < 0) f += (m * av * vr / (r2 + eps2) * inv_i) * gw;
+      if constexpr ((F & kViscosity) != 0)
+        f += (m * eta2 * inv_i * inv_i * r.dot(gw) / (r2 + eps2)) * vi;
+    }
+    // In a corner both walls' pushes include the quadrant beyond it: once only.
+    for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+      f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
+    });
+  };
+  if constexpr (kPairsOnce && (F & kWalls) != 0) {
+    // a[] holds the pair sums: the walls' share first, for the particles that
+    // have ghosts (the same arithmetic as in the loop below otherwise).
+    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
+      Vec2 f = a[i];
+      add_walls(f, ghosts, por2[i], inv_rho[i], v[i]);
+      a[i] = f;
+    });
+  }
   [[maybe_unused]] const Vec2* surface_acc = surface_.accelerations();
   const bool kick = half > 0;
   Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;
@@ -229,27 +265,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
       if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
         f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
     }
-    if constexpr ((F & kWalls) != 0) {
-      // A ghost at the foot of the perpendicular stands for the wall's
-      // half-plane of fluid at rest with the particle's pressure (its positive
-      // part: walls push, never pull). The pressure pair summed over that
-      // half-plane is 2 p_i rho0 / rho_i^2 times the kernel's integral along
-      // the wall line, pointing away from the wall.
-      const Real pw2 = std::max(pi2, Real(0));
-      for (const Vec2& r : ghosts_.row(i)) {
-        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
-        const Vec2 gw = W.gradient(r, rl);
-        if (rl > 0) f += (2 * pw2 * rho0 * W.wall_line(rl) / rl) * r;
-        const Real vr = vi.dot(r);
-        if (vr < 0) f += (m * av * vr / (r2 + eps2) * inv_i) * gw;
-        if constexpr ((F & kViscosity) != 0)
-          f += (m * eta2 * inv_i * inv_i * r.dot(gw) / (r2 + eps2)) * vi;
-      }
-      // In a corner both walls' pushes include the quadrant beyond it: once only.
-      for_each_corner(ghosts_.row(i), [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-        f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
-      });
-    }
+    if constexpr ((F & kWalls) != 0 && !kPairsOnce) add_walls(f, ghosts_.row(i), pi2, inv_i, vi);
     if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
     a[i] = f + g;
     if (kick) {
