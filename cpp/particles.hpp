@@ -37,19 +37,6 @@ class Field {
     buf_->resize(n);
   }
 
-  // out[k] = in[order[k]] for every k; order has size() entries.
-  void permute(const std::vector<Index>& order, int threads) {
-    if (!tmp_ || tmp_.use_count() > 1) tmp_ = std::make_shared<Buffer>();
-    tmp_->resize(order.size());
-    const T* in = buf_->data();
-    T* out = tmp_->data();
-    const Index* o = order.data();
-    const Index n = static_cast<Index>(order.size());
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (Index k = 0; k < n; ++k) out[k] = in[o[k]];
-    buf_.swap(tmp_);
-  }
-
   // A buffer of n entries to write a new version of the field into, without
   // touching the current one; commit_write() makes it current.
   T* begin_write(std::size_t n) {
@@ -77,7 +64,7 @@ class Field {
   }
 
   std::shared_ptr<Buffer> buf_;
-  std::shared_ptr<Buffer> tmp_;  // scratch for permute(), reused every step
+  std::shared_ptr<Buffer> tmp_;  // scratch for begin_write(), reused every step
 };
 
 struct ParticleSet {
@@ -102,11 +89,26 @@ struct ParticleSet {
     id.resize(n);
   }
 
-  // Reorder the state (x, v, id); derived fields are recomputed after a sort.
+  // Reorder the state (x, v, id) in one pass over the permutation; derived
+  // fields are recomputed after a sort.
   void permute_state(const std::vector<Index>& order, int threads) {
-    x.permute(order, threads);
-    v.permute(order, threads);
-    id.permute(order, threads);
+    const Index n = static_cast<Index>(order.size());
+    const Index* o = order.data();
+    const Vec2* xi = x.data();
+    const Vec2* vi = v.data();
+    const Id* ii = id.data();
+    Vec2* xo = x.begin_write(order.size());
+    Vec2* vo = v.begin_write(order.size());
+    Id* io = id.begin_write(order.size());
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index k = 0; k < n; ++k) {
+      xo[k] = xi[o[k]];
+      vo[k] = vi[o[k]];
+      io[k] = ii[o[k]];
+    }
+    x.commit_write();
+    v.commit_write();
+    id.commit_write();
   }
 
   void compact(const std::vector<char>& keep) {

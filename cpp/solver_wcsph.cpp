@@ -233,7 +233,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
       f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
     });
   };
-  if constexpr (kPairsOnce && (F & kWalls) != 0) {
+  if constexpr (kPairsOnce && ((F & kWalls) != 0)) {
     // a[] holds the pair sums: the walls' share first, for the particles that
     // have ghosts (the same arithmetic as in the loop below otherwise).
     ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
@@ -265,7 +265,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
       if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
         f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
     }
-    if constexpr ((F & kWalls) != 0 && !kPairsOnce) add_walls(f, ghosts_.row(i), pi2, inv_i, vi);
+    if constexpr (((F & kWalls) != 0) && !kPairsOnce) add_walls(f, ghosts_.row(i), pi2, inv_i, vi);
     if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
     a[i] = f + g;
     if (kick) {
