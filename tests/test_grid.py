@@ -53,8 +53,9 @@ def test_pairs_just_under_h_apart_in_cells_two_apart_by_rounding():
 
 
 def test_pair_count_spans_blocks_and_outlives_removal():
-    # Several pair blocks (at least 1,024 particles each); then a step in which
-    # particles leave the domain: the count stays that of the evaluation.
+    # Several pair blocks (an even number from 1,025 particles on: four here);
+    # then a step in which particles leave the domain: the count stays that of
+    # the evaluation.
     rng = np.random.default_rng(3)
     x = rng.uniform(0.0, 1.5, (3000, 2))
     v = np.zeros_like(x)

@@ -52,9 +52,10 @@ def test_native_equals_brute_force(eta, sigma, with_walls):
 @pytest.mark.parametrize("sigma", [0.0, 0.6])
 def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
     """Enough particles for several of the blocks in which the seed's pairs are
-    evaluated once (at least 1,024 particles a block), so pairs within a block
-    and pairs across blocks both occur, on one thread and on two, with and
-    without the colour field's pairwise sums (surface tension)."""
+    evaluated once (an even number from 1,025 particles on: four here), so
+    pairs within a block and pairs across blocks both occur, on one thread and
+    on two, with and without the colour field's pairwise sums (surface
+    tension)."""
     rng = np.random.default_rng(7)
     n = 2600
     x = rng.uniform(0.02, 1.87, (n, 2))
