@@ -141,10 +141,14 @@ class Solver {
   template <bool Periodic, bool Once, class KernelOfR2>
   void sort_and_find_neighbours(KernelOfR2 w);
   // The fluid pairs by cell clusters, without lists (cell_pairs.hpp), for
-  // both methods: where AVX-512 is available, without surface tension (the
-  // seed's colour field keeps the lists) and without periodic seams.
+  // both methods: where AVX-512 is available and without periodic seams; for
+  // the seed also without surface tension (its colour field keeps the lists;
+  // wcsph's surface energy reads none, surface_energy.hpp).
   static constexpr bool by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & (kPeriodic | kSurfaceTension)) == 0;
+  }
+  static constexpr bool wcsph_by_cells(unsigned features) {
+    return CellPairs::kAvailable && (features & kPeriodic) == 0;
   }
   void sort_by_cell();  // the particles into cell order (the sort phase)
   template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);

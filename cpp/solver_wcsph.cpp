@@ -140,7 +140,7 @@ void Solver::wcsph_evaluate_kick(Real half) {
   const SimParams& P = params_;
   const Wendland& W = wendland_;
   // summation density, self included
-  if constexpr (by_cells(F)) {
+  if constexpr (wcsph_by_cells(F)) {
     sort_and_sum_density_by_cells(Wendland::OfR2{&W});
   } else {
     sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Wendland::OfR2{&W});
@@ -205,8 +205,8 @@ void Solver::wcsph_evaluate_kick(Real half) {
   // the loop below starts.
   constexpr bool kPairsOnce = pairs_once(F);
   // The cell clusters have no minimum image: the gather loop below must stay off.
-  static_assert(!by_cells(F) || pairs_once(F));
-  if constexpr (by_cells(F)) {
+  static_assert(!wcsph_by_cells(F) || pairs_once(F));
+  if constexpr (wcsph_by_cells(F)) {
     wcsph_forces_by_cells<(F & kViscosity) != 0>();
   } else if constexpr (kPairsOnce) {
     wcsph_pairs_once<(F & kViscosity) != 0>();

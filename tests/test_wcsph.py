@@ -283,3 +283,20 @@ def test_dam_break_every_particle_within_one_percent_at_40_times_the_top_speed()
     assert steps > 25_000  # every step of the run was checked
     assert sim.removed_particles == 0
     assert worst < 0.01
+
+
+def test_tension_keeps_the_pair_loops_of_the_scene_without_it():
+    """wcsph's surface energy reads no neighbour lists, so surface tension
+    leaves the pairs where they are summed without it: by cell clusters, with
+    no lists kept, where those run (the seed's colour field needs the lists)."""
+    rng = np.random.default_rng(4)
+    x = rng.uniform(0.0, 0.8, (1500, 2))
+    held = []
+    for sigma in (0.0, 2.0):
+        p = _core.SimParams()
+        p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, 0.1, 0.6, 1000.0, 20.0
+        p.sigma, p.spacing = sigma, 0.025
+        p.domain_min, p.domain_max = (-1.0, -1.0), (2.0, 2.0)
+        s = _core.Solver(p, x, np.zeros_like(x), np.zeros((0, 2, 2)))
+        held.append((s.memory_bytes["neighbours"], s.neighbour_pairs))
+    assert held[1] == held[0]
