@@ -132,6 +132,9 @@ void Solver::find_ghosts(bool interior_only) {
   if constexpr (kVector8 && sizeof(Index) == 4) {
     // Eight particles at a time: most lie in lookup cells that no wall comes
     // near, and their rows are left empty in one store.
+    // Each particle's lookup cell is marked in wall_near_ for the integration.
+    wall_near_.resize(static_cast<std::size_t>(size()) + 8);
+    std::uint8_t* near_of = wall_near_.data();
     ghosts_.build_ranges(size(), team(), [&](Index lo, Index hi, Index* start,
                                              Chunk<Vec2>& out) {
       const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
@@ -142,6 +145,11 @@ void Solver::find_ghosts(bool interior_only) {
         const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
         const __mmask8 near = walls_.near8(0xFF, _mm512_permutex2var_pd(a, even, b),
                                            _mm512_permutex2var_pd(a, odd, b));
+#if defined(__AVX512BW__)
+        _mm_storel_epi64(reinterpret_cast<__m128i*>(near_of + i), _mm_maskz_set1_epi8(near, 1));
+#else
+        for (Index k = 0; k < 8; ++k) near_of[i + k] = near >> k & 1;
+#endif
         if (!near) {
           _mm256_storeu_si256(reinterpret_cast<__m256i*>(start + i),
                               _mm256_set1_epi32(static_cast<Index>(out.size())));
@@ -153,10 +161,12 @@ void Solver::find_ghosts(bool interior_only) {
         }
       }
       for (; i < hi; ++i) {
+        near_of[i] = walls_.may_hit(x[i], x[i]);  // off the grid counts as near here
         start[i] = static_cast<Index>(out.size());
         emit(i, out);
       }
     });
+    wall_near_fresh_ = true;
     return;
   }
 #endif
@@ -712,6 +722,9 @@ void Solver::integrate(Real dt, Real kick) {
   const Real v2_max = guard ? v_max * v_max : inf;
   bool bad = false;
   Real v2_sum = 0;
+  // The marks of the wall lookup cells serve this integration only.
+  [[maybe_unused]] const bool near_fresh = wall_near_fresh_;
+  wall_near_fresh_ = false;
 #if defined(__AVX512F__) && defined(__AVX512VL__)
   // Eight particles at a time (without periodic seams): the same arithmetic on
   // the interleaved x and y, the wall check for eight paths at once, and the
@@ -727,6 +740,11 @@ void Solver::integrate(Real dt, Real kick) {
     const double* ad = reinterpret_cast<const double*>(a);
     double* xn = reinterpret_cast<double*>(x_new);
     double* vn = reinterpret_cast<double*>(v_new);
+    // The lookup cells marked by this step's find_ghosts, for the positions x.
+    [[maybe_unused]] const bool near_known =
+        near_fresh && wall_near_.size() >= static_cast<std::size_t>(n) + 8;
+    [[maybe_unused]] const std::uint8_t* near_of = wall_near_.data();
+    [[maybe_unused]] const __m512d quarter_h2 = _mm512_set1_pd(Real(0.25) * params_.h * params_.h);
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
     reduction(+ : v2_sum)
     for (Index c = 0; c < chunks; ++c) {
@@ -761,8 +779,24 @@ void Solver::integrate(Real dt, Real kick) {
         const __m512d v_x = _mm512_permutex2var_pd(v_lo, even, v_hi);
         const __m512d v_y = _mm512_permutex2var_pd(v_lo, odd, v_hi);
         const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(v_x) & finite(v_y);
-        const __mmask8 may = walls_.may_hit8(ok, _mm512_permutex2var_pd(x_lo, even, x_hi),
-                                             _mm512_permutex2var_pd(x_lo, odd, x_hi), to_x, to_y);
+        const __m512d from_x = _mm512_permutex2var_pd(x_lo, even, x_hi);
+        const __m512d from_y = _mm512_permutex2var_pd(x_lo, odd, x_hi);
+        __mmask8 may;
+#if defined(__AVX512BW__)
+        if (near_known) {
+          // No wall comes within h of a cell without walls (nor of a point off
+          // the lookup grid), so a path from there shorter than h / 2 meets none.
+          const __m128i flags = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(near_of + i0));
+          const __mmask8 near = static_cast<__mmask8>(_mm_test_epi8_mask(flags, flags));
+          const __m512d dx = _mm512_sub_pd(to_x, from_x), dy = _mm512_sub_pd(to_y, from_y);
+          const __mmask8 short_path = _mm512_cmp_pd_mask(
+              _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)), quarter_h2, _CMP_LT_OQ);
+          may = ok & ~(~near & short_path);
+        } else
+#endif
+        {
+          may = walls_.may_hit8(ok, from_x, from_y, to_x, to_y);
+        }
         if (may) {
           for (unsigned k = 0; k < 8; ++k) {
             if (!(may >> k & 1u)) continue;

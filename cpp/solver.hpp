@@ -110,6 +110,7 @@ class Solver {
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
                             normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity() +
+                            wall_near_.capacity() +
                             surface_.bytes()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
@@ -196,6 +197,12 @@ class Solver {
   std::vector<Vec2> normal_;      // with tension, pairs once: the colour field's gradient
   std::vector<Real> lap_c_;       // ... and its Laplacian, per particle
   std::vector<char> keep_;    // scratch for domain removal
+  // Per particle (8 bytes of padding after n): 1 where its wall lookup cell
+  // has walls, 0 where no wall comes within h (WallSet::near8), from the last
+  // find_ghosts; fresh until the next integrate, which may then skip the wall
+  // check for short paths from the cells without walls.
+  std::vector<std::uint8_t> wall_near_;
+  bool wall_near_fresh_ = false;
   std::vector<char> bad_;     // per thread: a non-finite value was produced
 
   // Adds the time since the last mark to phase p (a few clock reads per step).

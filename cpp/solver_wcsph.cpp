@@ -43,6 +43,9 @@ template <unsigned F>
 void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   dt = step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
+  // The wall cells marked by the last evaluation may be of other positions (a
+  // retried step restores the state after evaluating): the drift checks anew.
+  wall_near_fresh_ = false;
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);
   remove_outside_domain();

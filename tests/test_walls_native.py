@@ -134,9 +134,29 @@ int main() {
       }
     }
   }
+  // What the integration takes from near8 (Solver::integrate): a path shorter
+  // than h / 2 from a point it leaves out meets no wall.
+  long short_paths = 0, hit = 0;
+  for (long k = 0; k < 400000; ++k) {
+    alignas(64) double x0[8], y0[8];
+    for (int l = 0; l < 8; ++l) point(x0[l], y0[l]);
+    const __mmask8 near = walls.near8(0xFF, _mm512_load_pd(x0), _mm512_load_pd(y0));
+    for (int l = 0; l < 8; ++l) {
+      if ((near >> l & 1) || !std::isfinite(x0[l]) || !std::isfinite(y0[l])) continue;
+      const Real len = 0.5 * 0.05 * std::sqrt(rnd()), ang = 6.283185307179586 * rnd();
+      const Vec2 p0(x0[l], y0[l]), p1 = p0 + len * Vec2(std::cos(ang), std::sin(ang));
+      Vec2 x = p1, v(1.0, 2.0);
+      walls.collide(p0, x, v, 0.5);
+      ++short_paths;
+      hit += x != p1 || v != Vec2(1.0, 2.0);
+    }
+  }
   std::printf("checked %ld lanes, wrong %ld\n", checked, wrong);
   std::printf("near8: %ld lanes with ghosts, %ld near without, wrong %ld\n", with_ghosts,
               near_without, wrong_near);
+  std::printf("short paths from cells without walls: %ld, met a wall %ld\n", short_paths, hit);
+  wrong += hit;
+  if (short_paths < 100000) ++wrong;
   wrong += wrong_near;
   if (with_ghosts < 1000 || near_without < 1000) ++wrong;  // both sides exercised
   return wrong != 0;
@@ -152,8 +172,9 @@ def test_may_hit8_agrees_with_may_hit_on_every_lane(tmp_path):
     """The integration's eight-lane wall check (AVX-512 builds) against the
     scalar one, lane by lane: random lane masks, points off the lookup grid,
     on its cell lines and not finite. And the ghost search's eight-lane test
-    (near8): no point with a wall ghost is left out, and no point is taken in
-    whose lookup cell has no wall."""
+    (near8): no point with a wall ghost is left out, no point is taken in
+    whose lookup cell has no wall, and no path shorter than h / 2 from a point
+    it leaves out meets a wall (the integration skips the wall check there)."""
     out = build_and_run(tmp_path, DRIVER8, "-march=native")
     if "no AVX-512" in out.stdout:
         pytest.skip("this CPU has no AVX-512 (the eight-lane check is not built)")
