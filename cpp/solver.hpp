@@ -197,10 +197,11 @@ class Solver {
   std::vector<Vec2> normal_;      // with tension, pairs once: the colour field's gradient
   std::vector<Real> lap_c_;       // ... and its Laplacian, per particle
   std::vector<char> keep_;    // scratch for domain removal
-  // Per particle (8 bytes of padding after n): 1 where its wall lookup cell
-  // has walls, 0 where no wall comes within h (WallSet::near8), from the last
-  // find_ghosts; fresh until the next integrate, which may then skip the wall
-  // check for short paths from the cells without walls.
+  // Per particle (8 bytes of padding after n), from the last find_ghosts: 0
+  // where no wall comes within h (a lookup cell without walls, or off the
+  // lookup grid: WallSet::near8), 1 otherwise (and for the few particles the
+  // scalar tail checks, off the grid too). Fresh until the next integrate,
+  // which may then skip the wall check for short paths from the 0s.
   std::vector<std::uint8_t> wall_near_;
   bool wall_near_fresh_ = false;
   std::vector<char> bad_;     // per thread: a non-finite value was produced
@@ -217,7 +218,7 @@ class Solver {
   static constexpr std::size_t kRetryLog = 100;
   // The pair-once loops' blocks, a number that depends on n alone (so the sums
   // do not depend on the thread count): one up to kPairBlockMin particles, then
-  // an even number of about kPairBlockMin each, at most kPairBlocks, so that
+  // an even number, 2 ceil(n / (2 kPairBlockMin)) up to kPairBlocks, so that
   // two threads take equal shares. pair_block() is their size in particles
   // (the list loops); the cell clusters cut as near as whole cell rows allow.
   static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024;

@@ -43,8 +43,8 @@ template <unsigned F>
 void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   dt = step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
-  // The wall cells marked by the last evaluation may be of other positions (a
-  // retried step restores the state after evaluating): the drift checks anew.
+  // The drift does not take the wall-cell marks of the last evaluation (the
+  // seed uses them right after its own, in the same step): it checks anew.
   wall_near_fresh_ = false;
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);

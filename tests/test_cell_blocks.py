@@ -1,7 +1,8 @@
 """The blocks of cell rows in which the cell-cluster loops evaluate each pair
 once (CellPairs::make_blocks), checked in a small program: they start at row
 boundaries, in order, and each cut falls at the first row boundary at or past
-its share k n / count, so two threads get halves that differ by at most a row.
+its share k n / count, so the first of two threads' halves holds at most one
+row more than n / 2.
 The cuts depend on the sorted particles alone (the thread-identity tests check
 the sums)."""
 from __future__ import annotations

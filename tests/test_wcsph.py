@@ -299,4 +299,6 @@ def test_tension_keeps_the_pair_loops_of_the_scene_without_it():
         p.domain_min, p.domain_max = (-1.0, -1.0), (2.0, 2.0)
         s = _core.Solver(p, x, np.zeros_like(x), np.zeros((0, 2, 2)))
         held.append((s.memory_bytes["neighbours"], s.neighbour_pairs))
+    if held[0][0] > 4 * len(x):
+        pytest.skip("no cell clusters in this build (no AVX-512): both keep the lists")
     assert held[1] == held[0]
