@@ -201,7 +201,9 @@ class Solver {
   // where no wall comes within h (a lookup cell without walls, or off the
   // lookup grid: WallSet::near8), 1 otherwise (and for the few particles the
   // scalar tail checks, off the grid too). Fresh until the next integrate,
-  // which may then skip the wall check for short paths from the 0s.
+  // which may then skip the wall check for short paths from the 0s: the seed's
+  // right after its evaluation, wcsph's drift in the next step (nothing moves
+  // or re-orders the particles in between without evaluating again).
   std::vector<std::uint8_t> wall_near_;
   bool wall_near_fresh_ = false;
   std::vector<char> bad_;     // per thread: a non-finite value was produced

@@ -43,9 +43,9 @@ template <unsigned F>
 void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   dt = step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
-  // The drift does not take the wall-cell marks of the last evaluation (the
-  // seed uses them right after its own, in the same step): it checks anew.
-  wall_near_fresh_ = false;
+  // The drift starts from the positions of the last evaluation (the end of
+  // the previous step, or compute_forces after the state or the walls
+  // changed), so the wall-cell marks of its find_ghosts hold for them.
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);
   remove_outside_domain();
