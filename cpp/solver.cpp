@@ -96,6 +96,7 @@ void Solver::select_step() {
 }
 
 void Solver::set_walls(std::vector<Segment> walls) {
+  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
   walls_ = WallSet(std::move(walls), params_.h);
   select_step();
   compute_forces();
@@ -103,6 +104,7 @@ void Solver::set_walls(std::vector<Segment> walls) {
 
 void Solver::add_particles(const std::vector<Vec2>& positions,
                            const std::vector<Vec2>& velocities) {
+  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
   check_state(positions, velocities, {});
   const Index n = size(), k = static_cast<Index>(positions.size());
   require(std::int64_t(n) + k < INT32_MAX, "too many particles");
@@ -196,6 +198,7 @@ void Solver::check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
 
 void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities,
                        std::vector<Id> ids) {
+  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
   check_state(positions, velocities, ids);
   const Index n = static_cast<Index>(positions.size());
   ps_.resize(n);
@@ -931,6 +934,7 @@ void Solver::remove_outside_domain() {
       v2_out += ps_.v[i].squaredNorm();
     }
   energy_removed_ += Real(0.5) * params_.mass * v2_out;
+  wall_near_fresh_ = false;  // the marks are by storage index
   ps_.compact(keep_);
   removed_ += removed;
 }
