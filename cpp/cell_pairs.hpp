@@ -57,8 +57,6 @@ class CellPairs {
   }
 
 #if defined(__AVX512F__)
-  static __m512i even() { return _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14); }
-  static __m512i odd() { return _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15); }
   // Lanes of the group at j whose particle comes after i (j + lane > i).
   static __mmask8 after(Index i, Index j) {
     const Index d = i + 1 - j;  // the first lane after i
@@ -77,8 +75,8 @@ class CellPairs {
       hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
       const double* p = reinterpret_cast<const double*>(pos + j);
       const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
-      x = _mm512_permutex2var_pd(a, even(), b);
-      y = _mm512_permutex2var_pd(a, odd(), b);
+      x = x_of8(a, b);
+      y = y_of8(a, b);
     }
   };
   // Another per-particle Vec2 array (velocities) for the group's particles.
@@ -88,7 +86,7 @@ class CellPairs {
   static Pairs8 deinterleave(const Vec2* v, Index j, const Group& g) {
     const double* p = reinterpret_cast<const double*>(v + j);
     const __m512d a = _mm512_maskz_loadu_pd(g.lo, p), b = _mm512_maskz_loadu_pd(g.hi, p + 8);
-    return {_mm512_permutex2var_pd(a, even(), b), _mm512_permutex2var_pd(a, odd(), b)};
+    return {x_of8(a, b), y_of8(a, b)};
   }
 #endif
 

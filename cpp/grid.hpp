@@ -194,8 +194,6 @@ class CellGrid {
     if constexpr (kVectorFilter) {
       // Eight candidates at a time: de-interleave their x and y, compare, and
       // compress the indices of the hits into found (same order as the scalar loop).
-      const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
-      const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
       const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
       const __m512d cx = _mm512_set1_pd(xi.x()), cy = _mm512_set1_pd(xi.y());
       const __m512d limit = _mm512_set1_pd(h2);
@@ -216,8 +214,8 @@ class CellGrid {
               static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1), p + 8);
           valid = static_cast<__mmask8>((1u << left) - 1);
         }
-        const __m512d dx = _mm512_sub_pd(_mm512_permutex2var_pd(lo, even, hi), cx);
-        const __m512d dy = _mm512_sub_pd(_mm512_permutex2var_pd(lo, odd, hi), cy);
+        const __m512d dx = _mm512_sub_pd(x_of8(lo, hi), cx);
+        const __m512d dy = _mm512_sub_pd(y_of8(lo, hi), cy);
         const __m512d d2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
         __mmask8 hit = _mm512_mask_cmp_pd_mask(valid, d2, limit, _CMP_LT_OQ);
         if (static_cast<unsigned>(i - j) < 8u) hit &= static_cast<__mmask8>(~(1u << (i - j)));

@@ -139,14 +139,11 @@ void Solver::find_ghosts(bool interior_only) {
     std::uint8_t* near_of = wall_near_.data();
     ghosts_.build_ranges(size(), team(), [&](Index lo, Index hi, Index* start,
                                              Chunk<Vec2>& out) {
-      const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
-      const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
       Index i = lo;
       for (; i + 8 <= hi; i += 8) {
         const double* p = reinterpret_cast<const double*>(x + i);
         const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
-        const __mmask8 near = walls_.near8(0xFF, _mm512_permutex2var_pd(a, even, b),
-                                           _mm512_permutex2var_pd(a, odd, b));
+        const __mmask8 near = walls_.near8(0xFF, x_of8(a, b), y_of8(a, b));
 #if defined(__AVX512BW__)
         _mm_storel_epi64(reinterpret_cast<__m128i*>(near_of + i), _mm_maskz_set1_epi8(near, 1));
 #else
@@ -734,8 +731,6 @@ void Solver::integrate(Real dt, Real kick) {
   // collision itself only for the paths that may meet a wall.
   if constexpr ((F & kPeriodic) == 0 && sizeof(Vec2) == 2 * sizeof(double)) {
     const Index chunks = (n + 7) / 8;
-    const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
-    const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
     const __m512d kv = _mm512_set1_pd(kick), dtv = _mm512_set1_pd(dt), zero = _mm512_setzero_pd();
     const __m512d v2_cap = _mm512_set1_pd(v2_max), rho_cap = _mm512_set1_pd(rho_max);
     const double* xd = reinterpret_cast<const double*>(x);
@@ -776,14 +771,13 @@ void Solver::integrate(Real dt, Real kick) {
       auto finite = [zero](__m512d u) {  // u - u is 0 unless u is inf or NaN
         return _mm512_cmp_pd_mask(_mm512_sub_pd(u, u), zero, _CMP_EQ_OQ);
       };
+      // The new positions and velocities as x and y lanes (again after any
+      // collision, which may change them).
+      __m512d to_x = x_of8(xn_lo, xn_hi), to_y = y_of8(xn_lo, xn_hi);
+      __m512d vx = x_of8(v_lo, v_hi), vy = y_of8(v_lo, v_hi);
       if constexpr ((F & kWalls) != 0) {
-        const __m512d to_x = _mm512_permutex2var_pd(xn_lo, even, xn_hi);
-        const __m512d to_y = _mm512_permutex2var_pd(xn_lo, odd, xn_hi);
-        const __m512d v_x = _mm512_permutex2var_pd(v_lo, even, v_hi);
-        const __m512d v_y = _mm512_permutex2var_pd(v_lo, odd, v_hi);
-        const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(v_x) & finite(v_y);
-        const __m512d from_x = _mm512_permutex2var_pd(x_lo, even, x_hi);
-        const __m512d from_y = _mm512_permutex2var_pd(x_lo, odd, x_hi);
+        const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(vx) & finite(vy);
+        const __m512d from_x = x_of8(x_lo, x_hi), from_y = y_of8(x_lo, x_hi);
         __mmask8 may;
 #if defined(__AVX512BW__)
         if (near_known) {
@@ -810,14 +804,15 @@ void Solver::integrate(Real dt, Real kick) {
           xn_hi = _mm512_maskz_loadu_pd(hi, xn + o8);
           v_lo = _mm512_maskz_loadu_pd(lo, vn + o);
           v_hi = _mm512_maskz_loadu_pd(hi, vn + o8);
+          to_x = x_of8(xn_lo, xn_hi);
+          to_y = y_of8(xn_lo, xn_hi);
+          vx = x_of8(v_lo, v_hi);
+          vy = y_of8(v_lo, v_hi);
         }
       }
-      const __m512d vx = _mm512_permutex2var_pd(v_lo, even, v_hi);
-      const __m512d vy = _mm512_permutex2var_pd(v_lo, odd, v_hi);
       const __m512d v2 = _mm512_fmadd_pd(vx, vx, _mm512_mul_pd(vy, vy));
       // Written so that NaN fails every comparison and so trips.
-      const __mmask8 fine = finite(_mm512_permutex2var_pd(xn_lo, even, xn_hi)) &
-                            finite(_mm512_permutex2var_pd(xn_lo, odd, xn_hi)) &
+      const __mmask8 fine = finite(to_x) & finite(to_y) &
                             _mm512_cmp_pd_mask(v2, v2_cap, _CMP_LE_OQ) &
                             _mm512_cmp_pd_mask(_mm512_maskz_loadu_pd(lanes, rho + i0), rho_cap,
                                                _CMP_LE_OQ);
