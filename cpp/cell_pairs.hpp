@@ -1,9 +1,10 @@
 // Pair sums by cell clusters, without neighbour lists (AVX-512), for the
-// density and the pair forces of both methods: the particles of one cell
-// against eight-lane groups of the contiguous candidate runs of half the
-// stencil, each pair once. A group's data (x, v, p, 1/rho) is loaded once for
-// all particles of the cell, and its particles' shares are summed in
-// registers and added to memory once per group.
+// density and the pair forces of both methods: the particles of one cell, a
+// tile of up to eight (four for the forces) at a time, against eight-lane
+// groups of the contiguous candidate runs of half the stencil, each pair once.
+// A group's data (x, v, p, 1/rho) is loaded once for the tile; the tile's sums
+// stay in registers, and the group's shares are summed in registers and added
+// to memory once per group and tile.
 //
 // Half the stencil: for particle i of cell (cx, cy), the run of cells cx - 1 ..
 // cx + 1 of its own row from i + 1 on, and the same three cells of the row
@@ -22,6 +23,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "grid.hpp"
@@ -31,7 +33,17 @@ namespace sphfluid {
 
 class CellPairs {
  private:
-  static constexpr Index kCluster = 16;  // particles of a cell taken together
+  // A cell's particles are taken up to kDensityTile (kPairTile) at a time, their
+  // sums held in registers: with_tile<Max> calls body with
+  // std::integral_constant<int, min(left, Max)>. (Wider pair tiles spill.)
+  static constexpr Index kDensityTile = 8, kPairTile = 4;
+  template <int Max, class Body>
+  static void with_tile(Index left, Body&& body) {
+    if constexpr (Max > 1) {
+      if (left < Max) return with_tile<Max - 1>(left, body);
+    }
+    body(std::integral_constant<int, Max>{});
+  }
 
   // The storage runs of cell (cx, cy) in the block of rows [y0, y1): its own
   // row's three cells end at own_end; the row above's three cells (j's share
@@ -132,45 +144,47 @@ class CellPairs {
     for (Index b = 0; b < nb; ++b) {
       const Index y0 = rows_[b], y1 = rows_[b + 1];
       std::fill(rho + start[y0 * nx], rho + start[y1 * nx], Real(0));
-      alignas(64) double acc[kCluster][8];
       for (Index cy = y0; cy < y1; ++cy) {
         for (Index cx = 0; cx < nx; ++cx) {
           const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
           const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kCluster) {
-            const Index q1 = std::min(s1, q0 + kCluster), k = q1 - q0;
-            for (Index q = 0; q < k; ++q) _mm512_store_pd(acc[q], _mm512_setzero_pd());
-            auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
-              for (Index j = j0; j < j1; j += 8) {
-                const Group g(x, j, j1);
-                __m512d wj = _mm512_setzero_pd();
-                for (Index q = 0; q < k; ++q) {
-                  const Index i = q0 + q;
-                  const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
-                  if (!live) continue;
-                  const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
-                  const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
-                  const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
-                  const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
-                  if (!in) continue;
-                  const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
-                  _mm512_store_pd(acc[q], _mm512_add_pd(_mm512_load_pd(acc[q]), wv));
-                  wj = _mm512_add_pd(wj, wv);
-                  if (count) pairs += __builtin_popcount(in);
+          for (Index q0 = s0; q0 < s1; q0 += kDensityTile) {
+            with_tile<kDensityTile>(s1 - q0, [&](auto tile) {
+              constexpr int k = decltype(tile)::value;
+              __m512d acc[k];
+              for (int q = 0; q < k; ++q) acc[q] = _mm512_setzero_pd();
+              auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
+                for (Index j = j0; j < j1; j += 8) {
+                  const Group g(x, j, j1);
+                  __m512d wj = _mm512_setzero_pd();
+                  for (int q = 0; q < k; ++q) {
+                    const Index i = q0 + q;
+                    const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                    if (!live) continue;
+                    const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
+                    const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
+                    const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+                    const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
+                    if (!in) continue;
+                    const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
+                    acc[q] = _mm512_add_pd(acc[q], wv);
+                    wj = _mm512_add_pd(wj, wv);
+                    if (count) pairs += __builtin_popcount(in);
+                  }
+                  if (scatter)
+                    _mm512_mask_storeu_pd(rho + j, g.lanes,
+                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
                 }
-                if (scatter)
-                  _mm512_mask_storeu_pd(rho + j, g.lanes,
-                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
+              };
+              run(q0 + 1, runs.own_end, true, true, true);
+              run(runs.above0, runs.above1, false, runs.above_in_block, true);
+              run(runs.below0, runs.below1, false, false, false);
+              // Every pair of these particles is in now (no later cell adds to them).
+              for (int q = 0; q < k; ++q) {
+                const Index i = q0 + q;
+                rho[i] = m * (self + (rho[i] + _mm512_reduce_add_pd(acc[q])));
               }
-            };
-            run(q0 + 1, runs.own_end, true, true, true);
-            run(runs.above0, runs.above1, false, runs.above_in_block, true);
-            run(runs.below0, runs.below1, false, false, false);
-            // Every pair of these particles is in now (no later cell adds to them).
-            for (Index q = 0; q < k; ++q) {
-              const Index i = q0 + q;
-              rho[i] = m * (self + (rho[i] + _mm512_reduce_add_pd(_mm512_load_pd(acc[q]))));
-            }
+            });
           }
         }
       }
@@ -196,56 +210,52 @@ class CellPairs {
     for (Index b = 0; b < nb; ++b) {
       const Index y0 = rows_[b], y1 = rows_[b + 1];
       std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
-      alignas(64) double fx[kCluster][8], fy[kCluster][8];
       Real* const ad = reinterpret_cast<Real*>(a);
       for (Index cy = y0; cy < y1; ++cy) {
         for (Index cx = 0; cx < nx; ++cx) {
           const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
           const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kCluster) {
-            const Index q1 = std::min(s1, q0 + kCluster), k = q1 - q0;
-            for (Index q = 0; q < k; ++q) {
-              _mm512_store_pd(fx[q], zero);
-              _mm512_store_pd(fy[q], zero);
-            }
-            auto run = [&](Index j0, Index j1, bool own, bool scatter) {
-              for (Index j = j0; j < j1; j += 8) {
-                const Group g(x, j, j1);
-                const auto data = pair.load(j, g);
-                __m512d fjx = zero, fjy = zero;
-                for (Index q = 0; q < k; ++q) {
-                  const Index i = q0 + q;
-                  const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
-                  if (!live) continue;
-                  const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
-                  const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
-                  const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
-                  const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
-                  if (!in) continue;
-                  __m512d fix = _mm512_load_pd(fx[q]), fiy = _mm512_load_pd(fy[q]);
-                  pair.add(i, data, in, dx, dy, r2, fix, fiy, fjx, fjy);
-                  _mm512_store_pd(fx[q], fix);
-                  _mm512_store_pd(fy[q], fiy);
+          for (Index q0 = s0; q0 < s1; q0 += kPairTile) {
+            with_tile<kPairTile>(s1 - q0, [&](auto tile) {
+              constexpr int k = decltype(tile)::value;
+              __m512d fx[k], fy[k];
+              for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
+              auto run = [&](Index j0, Index j1, bool own, bool scatter) {
+                for (Index j = j0; j < j1; j += 8) {
+                  const Group g(x, j, j1);
+                  const auto data = pair.load(j, g);
+                  __m512d fjx = zero, fjy = zero;
+                  for (int q = 0; q < k; ++q) {
+                    const Index i = q0 + q;
+                    const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                    if (!live) continue;
+                    const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
+                    const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
+                    const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+                    const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
+                    if (!in) continue;
+                    pair.add(i, data, in, dx, dy, r2, fx[q], fy[q], fjx, fjy);
+                  }
+                  if (scatter) {
+                    double* out = ad + 2 * static_cast<std::size_t>(j);
+                    const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
+                    const __m512d hi = _mm512_permutex2var_pd(fjx, hi_xy, fjy);
+                    _mm512_mask_storeu_pd(out, g.lo,
+                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.lo, out), lo));
+                    _mm512_mask_storeu_pd(out + 8, g.hi,
+                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.hi, out + 8), hi));
+                  }
                 }
-                if (scatter) {
-                  double* out = ad + 2 * static_cast<std::size_t>(j);
-                  const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
-                  const __m512d hi = _mm512_permutex2var_pd(fjx, hi_xy, fjy);
-                  _mm512_mask_storeu_pd(out, g.lo,
-                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lo, out), lo));
-                  _mm512_mask_storeu_pd(out + 8, g.hi,
-                                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.hi, out + 8), hi));
-                }
+              };
+              run(q0 + 1, runs.own_end, true, true);
+              run(runs.above0, runs.above1, false, runs.above_in_block);
+              run(runs.below0, runs.below1, false, false);
+              for (int q = 0; q < k; ++q) {
+                Vec2& ai = a[q0 + q];
+                ai.x() += _mm512_reduce_add_pd(fx[q]);
+                ai.y() += _mm512_reduce_add_pd(fy[q]);
               }
-            };
-            run(q0 + 1, runs.own_end, true, true);
-            run(runs.above0, runs.above1, false, runs.above_in_block);
-            run(runs.below0, runs.below1, false, false);
-            for (Index q = 0; q < k; ++q) {
-              Vec2& ai = a[q0 + q];
-              ai.x() += _mm512_reduce_add_pd(_mm512_load_pd(fx[q]));
-              ai.y() += _mm512_reduce_add_pd(_mm512_load_pd(fy[q]));
-            }
+            });
           }
         }
       }

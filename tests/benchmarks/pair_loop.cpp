@@ -6,12 +6,14 @@
 // scattered to both particles (with 1/r computed in the loop, or stored per
 // list entry beforehand, in double or in float refined by a Newton step), each
 // pair once by cell clusters (a cell's particles against 8-lane groups of the
-// half stencil's contiguous runs, no list: what the solver runs, with the
-// square root and division or with rsqrt14 and two Newton steps; and probes
-// that leave out the square root and division, the viscosity, or all but the
-// traversal, to see where its time goes), the same clusters in float on 16
-// lanes (converted from the doubles per group, or from float copies), and
-// AVX-512 over the full stencil's runs for each particle. First, the fluid
+// half stencil's contiguous runs, no list; with the square root and division
+// or with rsqrt14 and two Newton steps; the cell's particles four at a time
+// with their sums in registers, as the solver runs it, with one test per
+// particle or per tile, or behind a float prefilter; and probes that leave out
+// the square root and division, the viscosity, or all but the traversal, to
+// see where its time goes), the same clusters in float on 16 lanes (converted
+// from the doubles per group, or from float copies), and AVX-512 over the full
+// stencil's runs for each particle. First, the fluid
 // density (poly6 of r^2) by cell clusters against a sum over a full neighbour
 // list.
 // BENCHMARKS.md, "What was tried" and "Roofline", quotes its output.
@@ -401,6 +403,225 @@ void cluster_pairs(const Cloud& c, const Coefficients& k, double* f) {
   }
 }
 
+// The same clusters with a cell's particles taken K <= 4 at a time, their sums
+// in registers (what the solver runs): after each i's test (PerI) or, to see
+// what the branches cost, one test per group and tile and all K computed.
+template <int K, bool PerI>
+static inline void tile_run(const Cloud& c, const Coefficients& k, double* f, int t0, int j0, int j1, bool own,
+                            __m512d* fix, __m512d* fiy) {
+  const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+  const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+  const __m512i ilo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+  const __m512i ihi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m512d H = _mm512_set1_pd(c.h), H2 = _mm512_set1_pd(c.h * c.h), zero = _mm512_setzero_pd();
+  const __m512d G = _mm512_set1_pd(k.grad * 0.5), L = _mm512_set1_pd(k.eta * k.lap);
+  for (int j = j0; j < j1; j += 8) {
+    const int left = j1 - j;
+    const __mmask8 lanes = left >= 8 ? 0xFF : static_cast<__mmask8>((1u << left) - 1);
+    const unsigned doubles = 2u * static_cast<unsigned>(std::min(left, 8));
+    const __mmask8 lo_mask = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+    const __mmask8 hi_mask = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+    const __m512d xlo = _mm512_maskz_loadu_pd(lo_mask, &c.x[2 * j]);
+    const __m512d xhi = _mm512_maskz_loadu_pd(hi_mask, &c.x[2 * j + 8]);
+    const __m512d xj = _mm512_permutex2var_pd(xlo, even, xhi), yj = _mm512_permutex2var_pd(xlo, odd, xhi);
+    __m512d dx[K], dy[K], r2[K];
+    __mmask8 in[K];
+    unsigned any = 0;
+    for (int q = 0; q < K; ++q) {
+      const int i = t0 + q;
+      __mmask8 live = lanes;
+      if (own) {
+        const int d = i + 1 - j;
+        live &= d <= 0 ? 0xFF : d >= 8 ? 0 : static_cast<__mmask8>(0xFFu << d);
+      }
+      dx[q] = _mm512_sub_pd(_mm512_set1_pd(c.x[2 * i]), xj);
+      dy[q] = _mm512_sub_pd(_mm512_set1_pd(c.x[2 * i + 1]), yj);
+      r2[q] = _mm512_fmadd_pd(dx[q], dx[q], _mm512_mul_pd(dy[q], dy[q]));
+      in[q] = _mm512_mask_cmp_pd_mask(live, r2[q], H2, _CMP_LT_OQ) &
+              _mm512_mask_cmp_pd_mask(live, r2[q], zero, _CMP_GT_OQ);
+      any |= in[q];
+    }
+    if (!any) continue;
+    const __m512d vlo = _mm512_maskz_loadu_pd(lo_mask, &c.v[2 * j]);
+    const __m512d vhi = _mm512_maskz_loadu_pd(hi_mask, &c.v[2 * j + 8]);
+    const __m512d vxj = _mm512_permutex2var_pd(vlo, even, vhi), vyj = _mm512_permutex2var_pd(vlo, odd, vhi);
+    const __m512d pj = _mm512_maskz_loadu_pd(lanes, &c.p[j]);
+    const __m512d irj = _mm512_maskz_loadu_pd(lanes, &c.inv_rho[j]);
+    __m512d fjx = zero, fjy = zero;
+    for (int q = 0; q < K; ++q) {
+      if (PerI && !in[q]) continue;
+      const int i = t0 + q;
+      const __m512d r = _mm512_sqrt_pd(r2[q]);
+      const __m512d ir = _mm512_div_pd(_mm512_set1_pd(1.0), r);
+      const __m512d d = _mm512_sub_pd(H, r);
+      const __m512d pp = _mm512_maskz_mul_pd(in[q], _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(c.p[i]), pj), G),
+                                             _mm512_mul_pd(_mm512_mul_pd(d, d), ir));
+      const __m512d l = _mm512_maskz_mul_pd(in[q], L, d);
+      const __m512d dvx = _mm512_sub_pd(vxj, _mm512_set1_pd(c.v[2 * i]));
+      const __m512d dvy = _mm512_sub_pd(vyj, _mm512_set1_pd(c.v[2 * i + 1]));
+      const __m512d tx = _mm512_fmsub_pd(l, dvx, _mm512_mul_pd(pp, dx[q]));
+      const __m512d ty = _mm512_fmsub_pd(l, dvy, _mm512_mul_pd(pp, dy[q]));
+      fix[q] = _mm512_fmadd_pd(irj, tx, fix[q]);
+      fiy[q] = _mm512_fmadd_pd(irj, ty, fiy[q]);
+      const __m512d iri = _mm512_set1_pd(c.inv_rho[i]);
+      fjx = _mm512_fnmadd_pd(iri, tx, fjx);
+      fjy = _mm512_fnmadd_pd(iri, ty, fjy);
+    }
+    const __m512d flo = _mm512_permutex2var_pd(fjx, ilo, fjy), fhi = _mm512_permutex2var_pd(fjx, ihi, fjy);
+    _mm512_mask_storeu_pd(&f[2 * j], lo_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(lo_mask, &f[2 * j]), flo));
+    _mm512_mask_storeu_pd(&f[2 * j + 8], hi_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(hi_mask, &f[2 * j + 8]), fhi));
+  }
+}
+template <int K, bool PerI>
+static inline void tile(const Cloud& c, const Coefficients& k, double* f, int t0, int r1, int a0, int a1) {
+  __m512d fix[K], fiy[K];
+  for (int q = 0; q < K; ++q) fix[q] = fiy[q] = _mm512_setzero_pd();
+  tile_run<K, PerI>(c, k, f, t0, t0 + 1, r1, true, fix, fiy);
+  tile_run<K, PerI>(c, k, f, t0, a0, a1, false, fix, fiy);
+  for (int q = 0; q < K; ++q) {
+    f[2 * (t0 + q)] += _mm512_reduce_add_pd(fix[q]);
+    f[2 * (t0 + q) + 1] += _mm512_reduce_add_pd(fiy[q]);
+  }
+}
+template <bool PerI>
+void cluster_tiled(const Cloud& c, const Coefficients& k, double* f) {
+  std::fill(f, f + 2 * c.n, 0.0);
+  const int nc = c.nc;
+  for (int cell = 0; cell < nc * nc; ++cell) {
+    const int s0 = c.start[cell], s1 = c.start[cell + 1];
+    if (s0 == s1) continue;
+    const int cy = cell / nc, cx = cell % nc;
+    const int r1 = c.start[cy * nc + std::min(cx + 1, nc - 1) + 1];
+    int a0 = 0, a1 = 0;
+    if (cy + 1 < nc) {
+      a0 = c.start[(cy + 1) * nc + std::max(cx - 1, 0)];
+      a1 = c.start[(cy + 1) * nc + std::min(cx + 1, nc - 1) + 1];
+    }
+    for (int t0 = s0; t0 < s1;) {
+      const int m = std::min(s1 - t0, 4);
+      switch (m) {
+        case 4: tile<4, PerI>(c, k, f, t0, r1, a0, a1); break;
+        case 3: tile<3, PerI>(c, k, f, t0, r1, a0, a1); break;
+        case 2: tile<2, PerI>(c, k, f, t0, r1, a0, a1); break;
+        default: tile<1, PerI>(c, k, f, t0, r1, a0, a1); break;
+      }
+      t0 += m;
+    }
+  }
+}
+
+
+// A float prefilter on 16 lanes: float copies of x and y (not timed) decide,
+// with a margin, which 8-lane halves and which i go to the exact double test
+// and the compute.
+std::vector<float> g_fx, g_fy;
+void cluster_prefilter(const Cloud& c, const Coefficients& k, double* f) {
+  std::fill(f, f + 2 * c.n, 0.0);
+  const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+  const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+  const __m512i ilo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+  const __m512i ihi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m512d H = _mm512_set1_pd(c.h), H2 = _mm512_set1_pd(c.h * c.h), zero = _mm512_setzero_pd();
+  const __m512d G = _mm512_set1_pd(k.grad * 0.5), L = _mm512_set1_pd(k.eta * k.lap);
+  const float hf = float(c.h * (1 + 1e-4) + 1e-6);
+  const __m512 H2f = _mm512_set1_ps(hf * hf);
+  alignas(64) double fix[16][8], fiy[16][8];
+  const float* fxp = g_fx.data();
+  const float* fyp = g_fy.data();
+  const int nc = c.nc;
+  for (int cell = 0; cell < nc * nc; ++cell) {
+    const int s0 = c.start[cell], s1 = c.start[cell + 1];
+    if (s0 == s1) continue;
+    const int m = std::min(s1 - s0, 16);
+    const int cy = cell / nc, cx = cell % nc;
+    const int r1 = c.start[cy * nc + std::min(cx + 1, nc - 1) + 1];
+    int a0 = 0, a1 = 0;
+    if (cy + 1 < nc) {
+      a0 = c.start[(cy + 1) * nc + std::max(cx - 1, 0)];
+      a1 = c.start[(cy + 1) * nc + std::min(cx + 1, nc - 1) + 1];
+    }
+    for (int q = 0; q < m; ++q) {
+      _mm512_store_pd(fix[q], zero);
+      _mm512_store_pd(fiy[q], zero);
+    }
+    auto run = [&](int j0, int j1, bool own) {
+      for (int j16 = j0; j16 < j1; j16 += 16) {
+        const int left16 = j1 - j16;
+        const __mmask16 lanes16 = left16 >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << left16) - 1);
+        const __m512 xj16 = _mm512_maskz_loadu_ps(lanes16, fxp + j16), yj16 = _mm512_maskz_loadu_ps(lanes16, fyp + j16);
+        __mmask16 hit[16];
+        unsigned any = 0;
+        for (int q = 0; q < m; ++q) {
+          const int i = s0 + q;
+          __mmask16 live = lanes16;
+          if (own) {
+            const int d = i + 1 - j16;
+            live &= d <= 0 ? 0xFFFF : d >= 16 ? 0 : static_cast<__mmask16>(0xFFFFu << d);
+          }
+          const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(fxp[i]), xj16);
+          const __m512 dy = _mm512_sub_ps(_mm512_set1_ps(fyp[i]), yj16);
+          const __m512 r2 = _mm512_fmadd_ps(dx, dx, _mm512_mul_ps(dy, dy));
+          hit[q] = _mm512_mask_cmp_ps_mask(live, r2, H2f, _CMP_LT_OQ);
+          any |= hit[q];
+        }
+        for (int half = 0; half < 2; ++half) {
+          if (!((any >> (8 * half)) & 0xFF)) continue;
+          const int j = j16 + 8 * half;
+          const int left = j1 - j;
+          const __mmask8 lanes = left >= 8 ? 0xFF : static_cast<__mmask8>((1u << left) - 1);
+          const unsigned doubles = 2u * static_cast<unsigned>(std::min(left, 8));
+          const __mmask8 lo_mask = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+          const __mmask8 hi_mask = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+          const __m512d xlo = _mm512_maskz_loadu_pd(lo_mask, &c.x[2 * j]);
+          const __m512d xhi = _mm512_maskz_loadu_pd(hi_mask, &c.x[2 * j + 8]);
+          const __m512d xj = _mm512_permutex2var_pd(xlo, even, xhi), yj = _mm512_permutex2var_pd(xlo, odd, xhi);
+          const __m512d vlo = _mm512_maskz_loadu_pd(lo_mask, &c.v[2 * j]);
+          const __m512d vhi = _mm512_maskz_loadu_pd(hi_mask, &c.v[2 * j + 8]);
+          const __m512d vxj = _mm512_permutex2var_pd(vlo, even, vhi), vyj = _mm512_permutex2var_pd(vlo, odd, vhi);
+          const __m512d pj = _mm512_maskz_loadu_pd(lanes, &c.p[j]);
+          const __m512d irj = _mm512_maskz_loadu_pd(lanes, &c.inv_rho[j]);
+          __m512d fjx = zero, fjy = zero;
+          for (int q = 0; q < m; ++q) {
+            const __mmask8 h8 = static_cast<__mmask8>(hit[q] >> (8 * half));
+            if (!h8) continue;
+            const int i = s0 + q;
+            const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(c.x[2 * i]), xj);
+            const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(c.x[2 * i + 1]), yj);
+            const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+            const __mmask8 in = _mm512_mask_cmp_pd_mask(h8, r2, H2, _CMP_LT_OQ) &
+                                _mm512_mask_cmp_pd_mask(h8, r2, zero, _CMP_GT_OQ);
+            if (!in) continue;
+            const __m512d r = _mm512_sqrt_pd(r2);
+            const __m512d ir = _mm512_div_pd(_mm512_set1_pd(1.0), r);
+            const __m512d d = _mm512_sub_pd(H, r);
+            const __m512d pp = _mm512_maskz_mul_pd(in, _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(c.p[i]), pj), G),
+                                                   _mm512_mul_pd(_mm512_mul_pd(d, d), ir));
+            const __m512d l = _mm512_maskz_mul_pd(in, L, d);
+            const __m512d dvx = _mm512_sub_pd(vxj, _mm512_set1_pd(c.v[2 * i]));
+            const __m512d dvy = _mm512_sub_pd(vyj, _mm512_set1_pd(c.v[2 * i + 1]));
+            const __m512d tx = _mm512_fmsub_pd(l, dvx, _mm512_mul_pd(pp, dx));
+            const __m512d ty = _mm512_fmsub_pd(l, dvy, _mm512_mul_pd(pp, dy));
+            _mm512_store_pd(fix[q], _mm512_fmadd_pd(irj, tx, _mm512_load_pd(fix[q])));
+            _mm512_store_pd(fiy[q], _mm512_fmadd_pd(irj, ty, _mm512_load_pd(fiy[q])));
+            const __m512d iri = _mm512_set1_pd(c.inv_rho[i]);
+            fjx = _mm512_fnmadd_pd(iri, tx, fjx);
+            fjy = _mm512_fnmadd_pd(iri, ty, fjy);
+          }
+          const __m512d flo = _mm512_permutex2var_pd(fjx, ilo, fjy), fhi = _mm512_permutex2var_pd(fjx, ihi, fjy);
+          _mm512_mask_storeu_pd(&f[2 * j], lo_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(lo_mask, &f[2 * j]), flo));
+          _mm512_mask_storeu_pd(&f[2 * j + 8], hi_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(hi_mask, &f[2 * j + 8]), fhi));
+        }
+      }
+    };
+    run(s0, r1, true);
+    run(a0, a1, false);
+    for (int q = 0; q < m; ++q) {
+      f[2 * (s0 + q)] += _mm512_reduce_add_pd(_mm512_load_pd(fix[q]));
+      f[2 * (s0 + q) + 1] += _mm512_reduce_add_pd(_mm512_load_pd(fiy[q]));
+    }
+  }
+}
+
 // The same cell clusters in float, 16 lanes a group. Converted: positions
 // taken relative to the cell's corner in double and rounded to float (the
 // differences keep the pair's own scale, not the domain's), v, p and 1/rho
@@ -683,6 +904,10 @@ int main() {
   g_vf.assign(c.v.begin(), c.v.end());
   g_pf.assign(c.p.begin(), c.p.end());
   g_irf.assign(c.inv_rho.begin(), c.inv_rho.end());
+  for (int i = 0; i < c.n; ++i) {
+    g_fx.push_back(static_cast<float>(c.x[2 * i]));
+    g_fy.push_back(static_cast<float>(c.x[2 * i + 1]));
+  }
   struct Variant {
     const char* name;
     void (*run)(const Cloud&, const Coefficients&, double*);
@@ -714,6 +939,9 @@ int main() {
                              Variant{"once, float 1/r + Newton", symmetric_stored_f},
                              Variant{"cell clusters, sqrt + div", cluster_pairs<true>},
                              Variant{"cell clusters, rsqrt + Newton", cluster_pairs<false>},
+                             Variant{"clusters, tiles of 4", cluster_tiled<true>},
+                             Variant{"  tiles of 4, one test a tile", cluster_tiled<false>},
+                             Variant{"  float prefilter x16", cluster_prefilter},
                              Variant{"  probe: no sqrt, no division", cluster_pairs<true, Probe::NoRoot>},
                              Variant{"  probe: no viscosity", cluster_pairs<true, Probe::NoViscosity>},
                              Variant{"  probe: traversal only", cluster_pairs<true, Probe::Traversal>},
