@@ -129,12 +129,19 @@ class CellPairs {
   std::size_t bytes() const { return rows_.capacity() * sizeof(Index); }
 
 #if defined(__AVX512F__)
+  // After a block's pass its particles' sums are complete (no other block
+  // adds to them): finish(first, last) is called on them by the same thread,
+  // in the same parallel loop.
+  struct NoFinish {
+    void operator()(Index, Index) const {}
+  };
+
   // rho_i = m (self + sum_j w(|r_ij|^2)) over j != i with |r_ij| < h, where
   // w(__m512d r2) is the kernel of r^2 (zero-safe: masked lanes are dropped).
   // Returns the number of distinct pairs.
-  template <class WeightOfR2>
+  template <class WeightOfR2, class Finish = NoFinish>
   std::int64_t density(const CellGrid& grid, const Vec2* x, Real h, Real m, Real self,
-                       WeightOfR2 w, Real* rho, int threads) const {
+                       WeightOfR2 w, Real* rho, int threads, Finish finish = {}) const {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     const __m512d h2 = _mm512_set1_pd(h * h);
@@ -188,6 +195,7 @@ class CellPairs {
           }
         }
       }
+      finish(start[y0 * nx], start[y1 * nx]);
     }
     return pairs;
   }
@@ -196,9 +204,9 @@ class CellPairs {
   // returns the per-group data of the particles j; pair.add(i, data, in, dx,
   // dy, r2, fi, fj) adds, on the lanes in, i's share to fi and j's to fj
   // (r = x_i - x_j).
-  template <class Pair>
+  template <class Pair, class Finish = NoFinish>
   void pair_sums(const CellGrid& grid, const Vec2* x, Real h, Vec2* a, int threads,
-                 const Pair& pair) const {
+                 const Pair& pair, Finish finish = {}) const {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     const __m512d h2 = _mm512_set1_pd(h * h), zero = _mm512_setzero_pd();
@@ -259,6 +267,7 @@ class CellPairs {
           }
         }
       }
+      finish(start[y0 * nx], start[y1 * nx]);
     }
   }
 
@@ -393,14 +402,14 @@ class CellPairs {
     pair_sums(grid, x, h, a, threads, pair);
   }
 
-  template <bool Viscosity>
+  template <bool Viscosity, class Finish>
   void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
                    const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
-                   Vec2* a, int threads) const {
+                   Vec2* a, int threads, Finish finish) const {
     const SeedPair<Viscosity> pair{v, p, inv_rho, _mm512_set1_pd(h),
                                    _mm512_set1_pd(half_m_spiky_grad),
                                    _mm512_set1_pd(eta_m_visc_lap)};
-    pair_sums(grid, x, h, a, threads, pair);
+    pair_sums(grid, x, h, a, threads, pair, finish);
   }
 #endif
 

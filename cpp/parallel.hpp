@@ -122,6 +122,19 @@ class Csr {
       }
     }
   }
+  // The same for the rows [i0, i1) of the last build, on the calling thread.
+  template <class F>
+  void for_each_nonempty_row_in(Index i0, Index i1, F f) const {
+    for (std::size_t t = 0; t + 1 < lo_.size(); ++t) {
+      const Index lo = std::max(i0, lo_[t]), hi = std::min(i1, lo_[t + 1]);
+      const T* base = chunks_[t].begin();
+      for (Index i = lo; i < hi; ++i) {
+        const Index b = start_[i];
+        const Index e = i + 1 == lo_[t + 1] ? static_cast<Index>(chunks_[t].size()) : start_[i + 1];
+        if (b != e) f(i, Row<T>{base + b, base + e});
+      }
+    }
+  }
   // Heap bytes held, capacity included.
   std::size_t bytes() const {
     std::size_t sum = (start_.capacity() + lo_.capacity()) * sizeof(Index);

@@ -452,18 +452,19 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 
 template void Solver::sort_and_sum_density_by_cells(Wendland::OfR2);
 
-template <bool Viscosity>
-void Solver::seed_forces_by_cells() {
+template <bool Viscosity, class Finish>
+void Solver::seed_forces_by_cells(Finish finish) {
 #if defined(__AVX512F__)
   if constexpr (CellPairs::kAvailable) {
     cell_pairs_.seed_forces<Viscosity>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
                                        inv_rho_.data(), kern_.h,
                                        Real(0.5) * params_.mass * kern_.spiky_grad,
                                        params_.eta * params_.mass * kern_.visc_lap,
-                                       ps_.a.data(), team());
+                                       ps_.a.data(), team(), finish);
     return;
   }
 #endif
+  (void)finish;
   throw std::logic_error("the cell-cluster loops need AVX-512");
 }
 
@@ -483,30 +484,40 @@ std::int64_t Solver::neighbour_pairs() const {
   return 2 * pairs;
 }
 
-// Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15).
-// The ghosts' part first, for the particles that have ghosts; then the EOS for
-// all, in a loop the compiler vectorises.
+// Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15),
+// for the particles [i0, i1), on the calling thread. The ghosts' part first,
+// for the particles that have ghosts; then the EOS for all, in a loop the
+// compiler vectorises.
 template <unsigned F>
-void Solver::compute_density() {
-  const Index n = size();
+void Solver::finish_density(Index i0, Index i1) {
   Real* rho = ps_.rho.data();
   Real* p = ps_.p.data();
-  inv_rho_.resize(n);
   Real* inv_rho = inv_rho_.data();
   const Real k = params_.k, rho0 = params_.rho0;
   if constexpr ((F & kWalls) != 0) {
     const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
-    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
+    ghosts_.for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
       Real g = 0;
       for (const Vec2& r : ghosts) g += kern_.w_poly6(r.squaredNorm());
       rho[i] += m_ghost * g;
     });
   }
-#pragma omp parallel for schedule(static) num_threads(team())
-  for (Index i = 0; i < n; ++i) {
+  for (Index i = i0; i < i1; ++i) {
     p[i] = k * (rho[i] - rho0);
     inv_rho[i] = 1 / rho[i];
   }
+}
+
+// The same for all particles, each thread taking a range (the list paths).
+template <unsigned F>
+void Solver::compute_density() {
+  const Index n = size();
+  inv_rho_.resize(n);
+  const int nt = team();
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int t = 0; t < nt; ++t)
+    finish_density<F>(static_cast<Index>(std::int64_t(n) * t / nt),
+                      static_cast<Index>(std::int64_t(n) * (t + 1) / nt));
 }
 
 // The fluid pairs of compute_accelerations (pressure, viscosity, and with
@@ -599,12 +610,77 @@ void Solver::seed_pairs_once() {
   }
 }
 
+// The wall ghosts' pressure and viscosity on a particle with pressure pi and
+// velocity vi, subtracted from f. The pair (p_i + p_ghost) / 2 with both at the
+// positive part of p_i: the wall pushes back as hard as the fluid presses, and
+// never pulls.
+template <unsigned F>
+void Solver::add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const {
+  const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
+  const Real rho_ghost = params_.ghost_density_ratio * params_.rho0;
+  const Real p_wall = std::max(pi, Real(0));
+  for (const Vec2& r : ghosts) {
+    const Real rl = r.norm();
+    f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
+    if constexpr ((F & kViscosity) != 0)
+      f -= (params_.eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
+  }
+}
+
+// Where the fluid pairs are summed once (without tension), a[] holds their
+// force densities: for the particles [i0, i1), on the calling thread, the
+// walls' share first, for the particles that have ghosts, then a = f / rho + g
+// for all, in a loop the compiler vectorises (the same arithmetic as the
+// gather loop of compute_accelerations).
+template <unsigned F>
+void Solver::finish_accelerations(Index i0, Index i1) {
+  Vec2* a = ps_.a.data();
+  const Real* rho = ps_.rho.data();
+  if constexpr ((F & kWalls) != 0) {
+    const Real* p = ps_.p.data();
+    const Vec2* v = ps_.v.data();
+    ghosts_.for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
+      Vec2 f = a[i];
+      add_wall_forces<F>(f, ghosts, p[i], v[i]);
+      a[i] = f;
+    });
+  }
+  const Vec2 g = params_.gravity;
+  Real* ad = reinterpret_cast<Real*>(a);
+  for (Index i = i0; i < i1; ++i) {
+    ad[2 * i] = ad[2 * i] / rho[i] + g.x();
+    ad[2 * i + 1] = ad[2 * i + 1] / rho[i] + g.y();
+  }
+}
+
 // Pressure (seed eq. 14), viscosity (17) and colour-field surface tension
 // (18-20) as force densities; a = f / rho + g. Wall ghosts add pressure and
 // viscosity only. A ghost has the density rho0 * ghost_density_ratio and mirrors
 // the particle's pressure; only its positive part acts, so walls push, never pull.
 template <unsigned F>
 void Solver::compute_accelerations() {
+  // Without periodic seams, each fluid pair once: a[] (and, with tension, the
+  // colour field's sums) hold the pair sums when the loop below starts.
+  constexpr bool kPairsOnce = pairs_once(F);
+  // The cell clusters have no minimum image: the gather loop below must stay off.
+  static_assert(!by_cells(F) || pairs_once(F));
+  if constexpr (by_cells(F)) {
+    // Each pair block finished as soon as its sums are complete.
+    seed_forces_by_cells<(F & kViscosity) != 0>(
+        [&](Index i0, Index i1) { finish_accelerations<F>(i0, i1); });
+    return;
+  } else if constexpr (kPairsOnce) {
+    seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
+    if constexpr ((F & kSurfaceTension) == 0) {
+      const Index n = size();
+      const int nt = team();
+#pragma omp parallel for schedule(static) num_threads(nt)
+      for (int t = 0; t < nt; ++t)
+        finish_accelerations<F>(static_cast<Index>(std::int64_t(n) * t / nt),
+                                static_cast<Index>(std::int64_t(n) * (t + 1) / nt));
+      return;
+    }
+  }
   const Index n = size();
   const Vec2* x = ps_.x.data();
   const Vec2* v = ps_.v.data();
@@ -613,53 +689,9 @@ void Solver::compute_accelerations() {
   const Real* inv_rho = inv_rho_.data();
   Vec2* a = ps_.a.data();
   [[maybe_unused]] const Real m = params_.mass, eta = params_.eta, sigma = params_.sigma;
-  [[maybe_unused]] const Real m_ghost = params_.ghost_mass_ratio * m;
-  [[maybe_unused]] const Real rho_ghost = params_.ghost_density_ratio * params_.rho0;
   [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
   const Vec2 g = params_.gravity;
-  // Without periodic seams, each fluid pair once: a[] (and, with tension, the
-  // colour field's sums) hold the pair sums when the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F);
-  // The cell clusters have no minimum image: the gather loop below must stay off.
-  static_assert(!by_cells(F) || pairs_once(F));
-  if constexpr (by_cells(F)) {
-    seed_forces_by_cells<(F & kViscosity) != 0>();
-  } else if constexpr (kPairsOnce) {
-    seed_pairs_once<(F & kViscosity) != 0, (F & kSurfaceTension) != 0>();
-  }
-  // The wall ghosts' pressure and viscosity on particle i, subtracted from f.
-  // The pair (p_i + p_ghost) / 2 with both at the positive part of p_i: the
-  // wall pushes back as hard as the fluid presses, and never pulls.
-  [[maybe_unused]] const auto add_walls = [&](Vec2& f, Row<Vec2> ghosts, Real pi,
-                                              const Vec2& vi) {
-    const Real p_wall = std::max(pi, Real(0));
-    for (const Vec2& r : ghosts) {
-      const Real rl = r.norm();
-      f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
-      if constexpr ((F & kViscosity) != 0)
-        f -= (eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
-    }
-  };
-  if constexpr (kPairsOnce && (F & kSurfaceTension) == 0) {
-    // a[] holds the fluid pairs' force densities: the walls' share first, for
-    // the particles that have ghosts, then a = f / rho + g for all, in a loop
-    // the compiler vectorises (the same arithmetic as the loop below).
-    if constexpr ((F & kWalls) != 0) {
-      ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
-        Vec2 f = a[i];
-        add_walls(f, ghosts, p[i], v[i]);
-        a[i] = f;
-      });
-    }
-    Real* ad = reinterpret_cast<Real*>(a);
-#pragma omp parallel for schedule(static) num_threads(team())
-    for (Index i = 0; i < n; ++i) {
-      ad[2 * i] = ad[2 * i] / rho[i] + g.x();
-      ad[2 * i + 1] = ad[2 * i + 1] / rho[i] + g.y();
-    }
-    return;
-  }
 #pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
@@ -692,7 +724,7 @@ void Solver::compute_accelerations() {
         lap_c += vol * kern_.lap_poly6(r2);
       }
     }
-    if constexpr ((F & kWalls) != 0) add_walls(f, ghosts_.row(i), pi, vi);
+    if constexpr ((F & kWalls) != 0) add_wall_forces<F>(f, ghosts_.row(i), pi, vi);
     if constexpr ((F & kSurfaceTension) != 0) {
       const Real norm = normal.norm();
       if (norm > threshold) f -= (sigma * lap_c / norm) * normal;  // eq. 20

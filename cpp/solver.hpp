@@ -153,7 +153,14 @@ class Solver {
   }
   void sort_by_cell();  // the particles into cell order (the sort phase)
   template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);
-  template <bool Viscosity> void seed_forces_by_cells();
+  template <bool Viscosity, class Finish> void seed_forces_by_cells(Finish finish);
+  // The per-particle ends of the seed's density and force passes, for the
+  // particles [i0, i1) on the calling thread: per thread after the pairs, or
+  // (the forces by cells) per pair block as soon as its sums are complete.
+  template <unsigned F> void finish_density(Index i0, Index i1);
+  template <unsigned F> void finish_accelerations(Index i0, Index i1);
+  template <unsigned F>
+  void add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
   template <bool Viscosity> void wcsph_forces_by_cells();
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
   template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
