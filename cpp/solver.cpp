@@ -96,7 +96,7 @@ void Solver::select_step() {
 }
 
 void Solver::set_walls(std::vector<Segment> walls) {
-  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
+  wall_clear_fresh_ = false;  // until the next find_ghosts measures them anew
   walls_ = WallSet(std::move(walls), params_.h);
   select_step();
   compute_forces();
@@ -104,7 +104,7 @@ void Solver::set_walls(std::vector<Segment> walls) {
 
 void Solver::add_particles(const std::vector<Vec2>& positions,
                            const std::vector<Vec2>& velocities) {
-  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
+  wall_clear_fresh_ = false;  // until the next find_ghosts measures them anew
   check_state(positions, velocities, {});
   const Index n = size(), k = static_cast<Index>(positions.size());
   require(std::int64_t(n) + k < INT32_MAX, "too many particles");
@@ -125,8 +125,9 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
 // Wall ghosts of every particle, found once per step and reused by every pass.
 void Solver::find_ghosts(bool interior_only) {
   const Vec2* x = ps_.x.data();
+  // Returns the squared distance from x[i] to the nearest wall of its lookup cell.
   auto emit = [&](Index i, Chunk<Vec2>& out) {
-    walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
+    return walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
   };
@@ -134,9 +135,13 @@ void Solver::find_ghosts(bool interior_only) {
   if constexpr (kVector8 && sizeof(Index) == 4) {
     // Eight particles at a time: most lie in lookup cells that no wall comes
     // near, and their rows are left empty in one store.
-    // Each particle's lookup cell is marked in wall_near_ for the integration.
-    wall_near_.resize(static_cast<std::size_t>(size()) + 8);
-    std::uint8_t* near_of = wall_near_.data();
+    // Each particle's clearance goes to wall_clear2_ for the integration: the
+    // squared length of a path from it that meets no wall (WallSet::safe_path2
+    // of the distance to the nearest wall of its lookup cell).
+    wall_clear2_.resize(static_cast<std::size_t>(size()) + 8);
+    float* clear2 = wall_clear2_.data();
+    auto clearance = [&](Real d2) { return static_cast<float>(walls_.safe_path2(d2)); };
+    const float far2 = clearance(params_.h * params_.h);
     ghosts_.build_ranges(size(), team(), [&](Index lo, Index hi, Index* start,
                                              Chunk<Vec2>& out) {
       Index i = lo;
@@ -144,11 +149,7 @@ void Solver::find_ghosts(bool interior_only) {
         const double* p = reinterpret_cast<const double*>(x + i);
         const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
         const __mmask8 near = walls_.near8(0xFF, x_of8(a, b), y_of8(a, b));
-#if defined(__AVX512BW__)
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(near_of + i), _mm_maskz_set1_epi8(near, 1));
-#else
-        for (Index k = 0; k < 8; ++k) near_of[i + k] = near >> k & 1;
-#endif
+        _mm256_storeu_ps(clear2 + i, _mm256_set1_ps(far2));
         if (!near) {
           _mm256_storeu_si256(reinterpret_cast<__m256i*>(start + i),
                               _mm256_set1_epi32(static_cast<Index>(out.size())));
@@ -156,16 +157,15 @@ void Solver::find_ghosts(bool interior_only) {
         }
         for (Index k = 0; k < 8; ++k) {
           start[i + k] = static_cast<Index>(out.size());
-          if (near >> k & 1) emit(i + k, out);
+          if (near >> k & 1) clear2[i + k] = clearance(emit(i + k, out));
         }
       }
       for (; i < hi; ++i) {
-        near_of[i] = walls_.may_hit(x[i], x[i]);  // off the grid counts as near here
         start[i] = static_cast<Index>(out.size());
-        emit(i, out);
+        clear2[i] = clearance(emit(i, out));
       }
     });
-    wall_near_fresh_ = true;
+    wall_clear_fresh_ = true;
     return;
   }
 #endif
@@ -195,7 +195,7 @@ void Solver::check_state(const std::vector<Vec2>& x, const std::vector<Vec2>& v,
 
 void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities,
                        std::vector<Id> ids) {
-  wall_near_fresh_ = false;  // until the next find_ghosts marks the cells anew
+  wall_clear_fresh_ = false;  // until the next find_ghosts measures them anew
   check_state(positions, velocities, ids);
   const Index n = static_cast<Index>(positions.size());
   ps_.resize(n);
@@ -754,9 +754,9 @@ void Solver::integrate(Real dt, Real kick) {
   const Real v2_max = guard ? v_max * v_max : inf;
   bool bad = false;
   Real v2_sum = 0;
-  // The marks of the wall lookup cells serve this integration only.
-  [[maybe_unused]] const bool near_fresh = wall_near_fresh_;
-  wall_near_fresh_ = false;
+  // The wall clearances serve this integration only.
+  [[maybe_unused]] const bool near_fresh = wall_clear_fresh_;
+  wall_clear_fresh_ = false;
 #if defined(__AVX512F__) && defined(__AVX512VL__)
   // Eight particles at a time (without periodic seams): the same arithmetic on
   // the interleaved x and y, the wall check for eight paths at once, and the
@@ -770,11 +770,10 @@ void Solver::integrate(Real dt, Real kick) {
     const double* ad = reinterpret_cast<const double*>(a);
     double* xn = reinterpret_cast<double*>(x_new);
     double* vn = reinterpret_cast<double*>(v_new);
-    // The lookup cells marked by this step's find_ghosts, for the positions x.
+    // The clearances found by this step's find_ghosts, for the positions x.
     [[maybe_unused]] const bool near_known =
-        near_fresh && wall_near_.size() >= static_cast<std::size_t>(n) + 8;
-    [[maybe_unused]] const std::uint8_t* near_of = wall_near_.data();
-    [[maybe_unused]] const __m512d quarter_h2 = _mm512_set1_pd(Real(0.25) * params_.h * params_.h);
+        near_fresh && wall_clear2_.size() >= static_cast<std::size_t>(n) + 8;
+    [[maybe_unused]] const float* clear2_of = wall_clear2_.data();
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
     reduction(+ : v2_sum)
     for (Index c = 0; c < chunks; ++c) {
@@ -811,19 +810,17 @@ void Solver::integrate(Real dt, Real kick) {
         const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(vx) & finite(vy);
         const __m512d from_x = x_of8(x_lo, x_hi), from_y = y_of8(x_lo, x_hi);
         __mmask8 may;
-#if defined(__AVX512BW__)
         if (near_known) {
-          // No wall comes within h of a cell without walls (nor of a point off
-          // the lookup grid), so a path from there shorter than h / 2 meets none.
-          const __m128i flags = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(near_of + i0));
-          const __mmask8 near = static_cast<__mmask8>(_mm_test_epi8_mask(flags, flags));
+          // A path shorter than the particle's clearance meets no wall: every
+          // wall within h of it is in its lookup cell (none where no wall
+          // comes near, nor off the lookup grid), and the clearance is less
+          // than h / 2 and than the distance to the nearest of those walls.
+          const __m512d c2 = _mm512_cvtps_pd(_mm256_loadu_ps(clear2_of + i0));
           const __m512d dx = _mm512_sub_pd(to_x, from_x), dy = _mm512_sub_pd(to_y, from_y);
-          const __mmask8 short_path = _mm512_cmp_pd_mask(
-              _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)), quarter_h2, _CMP_LT_OQ);
-          may = ok & ~(~near & short_path);
-        } else
-#endif
-        {
+          const __mmask8 short_path =
+              _mm512_cmp_pd_mask(_mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)), c2, _CMP_LT_OQ);
+          may = ok & ~short_path;
+        } else {
           may = walls_.may_hit8(ok, from_x, from_y, to_x, to_y);
         }
         if (may) {
@@ -967,7 +964,7 @@ void Solver::remove_outside_domain() {
       v2_out += ps_.v[i].squaredNorm();
     }
   energy_removed_ += Real(0.5) * params_.mass * v2_out;
-  wall_near_fresh_ = false;  // the marks are by storage index
+  wall_clear_fresh_ = false;  // the clearances are by storage index
   ps_.compact(keep_);
   removed_ += removed;
 }

@@ -110,7 +110,7 @@ class Solver {
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
                             normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity() +
-                            wall_near_.capacity() +
+                            wall_clear2_.capacity() * sizeof(float) +
                             surface_.bytes()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
@@ -204,15 +204,16 @@ class Solver {
   std::vector<Vec2> normal_;      // with tension, pairs once: the colour field's gradient
   std::vector<Real> lap_c_;       // ... and its Laplacian, per particle
   std::vector<char> keep_;    // scratch for domain removal
-  // Per particle (8 bytes of padding after n), from the last find_ghosts: 0
-  // where no wall comes within h (a lookup cell without walls, or off the
-  // lookup grid: WallSet::near8), 1 otherwise (and for the few particles the
-  // scalar tail checks, off the grid too). Fresh until the next integrate,
-  // which may then skip the wall check for short paths from the 0s: the seed's
-  // right after its evaluation, wcsph's drift in the next step (nothing moves
-  // or re-orders the particles in between without evaluating again).
-  std::vector<std::uint8_t> wall_near_;
-  bool wall_near_fresh_ = false;
+  // Per particle (8 entries of padding after n), from the last find_ghosts:
+  // the squared length of a path from it that meets no wall, from the distance
+  // to the nearest wall of its lookup cell (every wall within h of it is there;
+  // none where no wall comes within h, nor off the lookup grid:
+  // WallSet::near8, safe_path2). Fresh until the next integrate, which
+  // then skips the wall check for paths shorter than it: the seed's right
+  // after its evaluation, wcsph's drift in the next step (nothing moves or
+  // re-orders the particles in between without evaluating again).
+  std::vector<float> wall_clear2_;
+  bool wall_clear_fresh_ = false;
   std::vector<char> bad_;     // per thread: a non-finite value was produced
 
   // Adds the time since the last mark to phase p (a few clock reads per step).

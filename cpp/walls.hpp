@@ -7,6 +7,7 @@
 #include <immintrin.h>
 #endif
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -48,21 +49,35 @@ class WallSet {
   // end point of its segment. A ghost sits at the foot of the perpendicular on each segment
   // within h (seed 4.1). Where segments share an end point the particle gets one
   // ghost there, not one per segment, so polylines have no doubled joints.
+  // Returns the squared distance from p to the nearest segment of its lookup
+  // cell, at most h^2 (h^2 off the grid): no other segment comes within h of p.
   template <class F>
-  void for_each_ghost(const Vec2& p, F&& f) const {
+  Real for_each_ghost(const Vec2& p, F&& f) const {
     const Index c = cell_of(p);
-    if (c < 0) return;
+    Real nearest2 = h2_;
+    if (c < 0) return nearest2;
     for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) {
       const Index si = cell_items_[q];
       const Segment& s = segments_[si];
       Real t;
       const Vec2 foot = closest_point(s, p, t);
       const Vec2 r = p - foot;
+      nearest2 = std::min(nearest2, r.squaredNorm());
       if (r.squaredNorm() >= h2_) continue;
       if (t <= 0 && !owns_end_point(si, s.shared_a, p)) continue;
       if (t >= 1 && !owns_end_point(si, s.shared_b, p)) continue;
       f(r, t > 0 && t < 1);
     }
+    return nearest2;
+  }
+
+  // From for_each_ghost's squared distance d2 of a point: a squared length
+  // below which a path from the point meets no wall. At most (h/2)^2, and
+  // 2e-6 h^2 less than d2: a margin of 1e-6 h on the distance for its rounding
+  // (absolute, near 1e-16 of the coordinates: a point on a wall measures
+  // about 1e-17 m from it), for the collision test's, and for a float copy.
+  Real safe_path2(Real d2) const {
+    return std::max(std::min(d2, Real(0.25) * h2_) - Real(2e-6) * h2_, Real(0));
   }
 
   // Moves a particle from x_old towards x_new (its velocity v already updated)

@@ -71,6 +71,7 @@ def test_may_hit_never_skips_a_collision(tmp_path):
     assert "changed by collide 0" in out.stdout
 
 DRIVER8 = r"""
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -134,29 +135,41 @@ int main() {
       }
     }
   }
-  // What the integration takes from near8 (Solver::integrate): a path shorter
-  // than h / 2 from a point it leaves out meets no wall.
-  long short_paths = 0, hit = 0;
+  // What the integration takes from the ghost search (Solver::find_ghosts,
+  // Solver::integrate): a path shorter than the clearance (safe_path2 of the
+  // distance for_each_ghost returns) meets no wall; from points with ghosts,
+  // from points near walls without, from points no wall comes near, and from
+  // points on a wall (the cell lines include the box's sides). Paths up to
+  // three clearances long must meet walls, or this check could not fail.
+  long short_paths = 0, hit = 0, long_paths = 0, long_hit = 0;
   for (long k = 0; k < 400000; ++k) {
-    alignas(64) double x0[8], y0[8];
-    for (int l = 0; l < 8; ++l) point(x0[l], y0[l]);
-    const __mmask8 near = walls.near8(0xFF, _mm512_load_pd(x0), _mm512_load_pd(y0));
-    for (int l = 0; l < 8; ++l) {
-      if ((near >> l & 1) || !std::isfinite(x0[l]) || !std::isfinite(y0[l])) continue;
-      const Real len = 0.5 * 0.05 * std::sqrt(rnd()), ang = 6.283185307179586 * rnd();
-      const Vec2 p0(x0[l], y0[l]), p1 = p0 + len * Vec2(std::cos(ang), std::sin(ang));
-      Vec2 x = p1, v(1.0, 2.0);
-      walls.collide(p0, x, v, 0.5);
+    double x0, y0;
+    point(x0, y0);
+    if (!std::isfinite(x0) || !std::isfinite(y0)) continue;
+    const Vec2 p0(x0, y0);
+    // as the solver keeps it: in float
+    const Real c2 = static_cast<float>(walls.safe_path2(walls.for_each_ghost(p0, [](const Vec2&, bool) {})));
+    const bool too_long = k % 2 == 1;
+    const Real len = (too_long ? 3 : 1) * std::sqrt(c2 * rnd()), ang = 6.283185307179586 * rnd();
+    const Vec2 p1 = p0 + len * Vec2(std::cos(ang), std::sin(ang));
+    Vec2 x = p1, v(1.0, 2.0);
+    walls.collide(p0, x, v, 0.5);
+    const bool changed = x != p1 || v != Vec2(1.0, 2.0);
+    if (too_long) {
+      ++long_paths;
+      long_hit += changed;
+    } else {
       ++short_paths;
-      hit += x != p1 || v != Vec2(1.0, 2.0);
+      hit += changed;
     }
   }
   std::printf("checked %ld lanes, wrong %ld\n", checked, wrong);
   std::printf("near8: %ld lanes with ghosts, %ld near without, wrong %ld\n", with_ghosts,
               near_without, wrong_near);
-  std::printf("short paths from cells without walls: %ld, met a wall %ld\n", short_paths, hit);
+  std::printf("paths shorter than the clearance: %ld, met a wall %ld\n", short_paths, hit);
+  std::printf("paths up to three clearances: %ld, met a wall %ld\n", long_paths, long_hit);
   wrong += hit;
-  if (short_paths < 100000) ++wrong;
+  if (short_paths < 100000 || long_hit < 100) ++wrong;
   wrong += wrong_near;
   if (with_ghosts < 1000 || near_without < 1000) ++wrong;  // both sides exercised
   return wrong != 0;
@@ -173,8 +186,9 @@ def test_may_hit8_agrees_with_may_hit_on_every_lane(tmp_path):
     scalar one, lane by lane: random lane masks, points off the lookup grid,
     on its cell lines and not finite. And the ghost search's eight-lane test
     (near8): no point with a wall ghost is left out, no point is taken in
-    whose lookup cell has no wall, and no path shorter than h / 2 from a point
-    it leaves out meets a wall (the integration skips the wall check there)."""
+    whose lookup cell has no wall. And no path shorter than a point's clearance
+    from the ghost search meets a wall (the integration skips the wall check
+    there)."""
     out = build_and_run(tmp_path, DRIVER8, "-march=native")
     if "no AVX-512" in out.stdout:
         pytest.skip("this CPU has no AVX-512 (the eight-lane check is not built)")
