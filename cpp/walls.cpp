@@ -101,8 +101,11 @@ WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(se
       }
   }
   cell_start_.assign(lists.size() + 1, 0);
-  for (std::size_t c = 0; c < lists.size(); ++c)
-    cell_start_[c + 1] = cell_start_[c] + static_cast<Index>(lists[c].size());
+  cell_count_.resize(lists.size());
+  for (std::size_t c = 0; c < lists.size(); ++c) {
+    cell_count_[c] = static_cast<Index>(lists[c].size());
+    cell_start_[c + 1] = cell_start_[c] + cell_count_[c];
+  }
   cell_items_.reserve(cell_start_.back());
   for (const auto& l : lists) cell_items_.insert(cell_items_.end(), l.begin(), l.end());
 }
