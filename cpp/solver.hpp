@@ -228,14 +228,18 @@ class Solver {
   static constexpr std::size_t kRetryLog = 100;
   // The pair-once loops' blocks, a number that depends on n alone (so the sums
   // do not depend on the thread count): one up to kPairBlockMin particles, then
-  // an even number, 2 ceil(n / (2 kPairBlockMin)) up to kPairBlocks, so that
+  // an even number, 2 ceil(n / (2 kPairBlockSize)) up to kPairBlocks, so that
   // two threads take equal shares. pair_block() is their size in particles
   // (the list loops); the cell clusters cut as near as whole cell rows allow.
-  static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024;
+  // A pair across two blocks is evaluated from each side, so blocks cost: at
+  // 10k particles 2 blocks (of ~8k at most) ran 3.5 % faster than 10 (of ~1k)
+  // on one thread, 4.8 % on two.
+  static constexpr Index kPairBlocks = 16, kPairBlockMin = 1024, kPairBlockSize = 8192;
   Index pair_blocks() const {
-    const Index n = size();
+    const std::int64_t n = size();
     if (n <= kPairBlockMin) return 1;
-    return std::min<Index>(kPairBlocks, 2 * ((n + 2 * kPairBlockMin - 1) / (2 * kPairBlockMin)));
+    return static_cast<Index>(std::min<std::int64_t>(
+        kPairBlocks, 2 * ((n + 2 * kPairBlockSize - 1) / (2 * kPairBlockSize))));
   }
   Index pair_block() const {
     return std::max<Index>(1, (size() + pair_blocks() - 1) / pair_blocks());

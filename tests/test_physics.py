@@ -52,7 +52,7 @@ def test_native_equals_brute_force(eta, sigma, with_walls):
 @pytest.mark.parametrize("sigma", [0.0, 0.6])
 def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
     """Enough particles for several of the blocks in which the seed's pairs are
-    evaluated once (an even number from 1,025 particles on: four here), so
+    evaluated once (an even number from 1,025 particles on: two here), so
     pairs within a block and pairs across blocks both occur, on one thread and
     on two, with and without the colour field's pairwise sums (surface
     tension)."""
@@ -73,10 +73,10 @@ def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
 
 @pytest.mark.parametrize("threads", [1, 2])
 def test_native_equals_brute_force_with_crowded_cells(threads):
-    """Cells holding many more particles than the 16 the cell-cluster loops
-    take at once (cpp/cell_pairs.hpp), empty cells and rows between clumps, and
-    coincident particles (r = 0: no pressure force between them), across
-    several blocks of cell rows."""
+    """Cells holding many more particles than the 8 (4 for the forces) that the
+    cell-cluster loops take at once (cpp/cell_pairs.hpp), empty cells and rows
+    between clumps, and coincident particles (r = 0: no pressure force between
+    them), across several blocks of cell rows."""
     rng = np.random.default_rng(3)
     clumps = [rng.uniform(c, c + 0.04, (60, 2)) for c in (0.1, 0.5, 1.3)]
     x = np.vstack([rng.uniform(0.02, 1.9, (1500, 2)), rng.uniform(0.02, 0.6, (1200, 2)),

@@ -82,7 +82,7 @@ def test_native_wcsph_equals_brute_force(alpha, eta, p_b):
 @pytest.mark.parametrize("threads", [1, 2])
 def test_native_wcsph_equals_brute_force_across_pair_blocks(threads):
     """Enough particles for several of the blocks in which the pairs are
-    evaluated once (an even number from 1,025 particles on: four here), so
+    evaluated once (an even number from 1,025 particles on: two here), so
     pairs within a block and across blocks both occur, on one thread and on
     two."""
     check_against_brute_force(n=2600, side=1.3, seed=9, alpha=0.3, eta=0.5, threads=threads)
