@@ -160,7 +160,10 @@ class CellPairs {
               constexpr int k = decltype(tile)::value;
               __m512d acc[k];
               for (int q = 0; q < k; ++q) acc[q] = _mm512_setzero_pd();
+              // Returns the pairs it met (counted where asked), in a local
+              // rather than in the thread's total, which stays in memory.
               auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
+                unsigned met = 0;
                 for (Index j = j0; j < j1; j += 8) {
                   const Group g(x, j, j1);
                   __m512d wj = _mm512_setzero_pd();
@@ -176,15 +179,16 @@ class CellPairs {
                     const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
                     acc[q] = _mm512_add_pd(acc[q], wv);
                     wj = _mm512_add_pd(wj, wv);
-                    if (count) pairs += __builtin_popcount(in);
+                    if (count) met += static_cast<unsigned>(__builtin_popcount(in));
                   }
                   if (scatter)
                     _mm512_mask_storeu_pd(rho + j, g.lanes,
                                           _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
                 }
+                return met;
               };
-              run(q0 + 1, runs.own_end, true, true, true);
-              run(runs.above0, runs.above1, false, runs.above_in_block, true);
+              pairs += run(q0 + 1, runs.own_end, true, true, true);
+              pairs += run(runs.above0, runs.above1, false, runs.above_in_block, true);
               run(runs.below0, runs.below1, false, false, false);
               // Every pair of these particles is in now (no later cell adds to them).
               for (int q = 0; q < k; ++q) {
