@@ -1,10 +1,10 @@
 // Pair sums by cell clusters, without neighbour lists (AVX-512), for the
 // density and the pair forces of both methods: the particles of one cell, a
-// tile of up to eight (four for the forces) at a time, against eight-lane
-// groups of the contiguous candidate runs of half the stencil, each pair once.
-// A group's data (x, v, p, 1/rho) is loaded once for the tile; the tile's sums
-// stay in registers, and the group's shares are summed in registers and added
-// to memory once per group and tile.
+// tile of up to eight (four for the forces) at a time, against groups of eight
+// (four for wcsph's forces) of the contiguous candidate runs of half the
+// stencil, each pair once. A group's data (x, v, p, 1/rho) is loaded once for
+// the tile; the tile's sums stay in registers, and the group's shares are
+// summed in registers and added to memory once per group and tile.
 //
 // Half the stencil: for particle i of cell (cx, cy), the run of cells cx - 1 ..
 // cx + 1 of its own row from i + 1 on, and the same three cells of the row
@@ -19,6 +19,13 @@
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
+#endif
+
+// The cell clusters need AVX-512F and, for the four-lane groups, VL.
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+#define SPHFLUID_CELL_PAIRS 1
+#else
+#define SPHFLUID_CELL_PAIRS 0
 #endif
 
 #include <algorithm>
@@ -68,7 +75,7 @@ class CellPairs {
     return r;
   }
 
-#if defined(__AVX512F__)
+#if SPHFLUID_CELL_PAIRS
   // Lanes of the group at j whose particle comes after i (j + lane > i).
   static __mmask8 after(Index i, Index j) {
     const Index d = i + 1 - j;  // the first lane after i
@@ -100,10 +107,87 @@ class CellPairs {
     const __m512d a = _mm512_maskz_loadu_pd(g.lo, p), b = _mm512_maskz_loadu_pd(g.hi, p + 8);
     return {x_of8(a, b), y_of8(a, b)};
   }
+  // The 8-lane group's j shares (x and y lanes) added to the interleaved a.
+  static void add_shares(double* out, const Group& g, __m512d fjx, __m512d fjy) {
+    const __m512i lo_xy = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+    const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+    const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
+    const __m512d hi = _mm512_permutex2var_pd(fjx, hi_xy, fjy);
+    _mm512_mask_storeu_pd(out, g.lo, _mm512_add_pd(_mm512_maskz_loadu_pd(g.lo, out), lo));
+    _mm512_mask_storeu_pd(out + 8, g.hi, _mm512_add_pd(_mm512_maskz_loadu_pd(g.hi, out + 8), hi));
+  }
+  // Groups of four (256-bit lanes with AVX-512VL masks), for pair terms whose
+  // arithmetic outweighs the traversal (wcsph's): a particle meets about 2.5
+  // pairs per eight candidates, and on CPUs that split 512-bit arithmetic in
+  // two halves (AMD Zen 4) a four-lane evaluation costs half an eight-lane
+  // one. Lanes of the group of four at j after i:
+  static __mmask8 after4(Index i, Index j) {
+    const Index d = i + 1 - j;
+    return d <= 0 ? __mmask8(0xF) : d >= 4 ? __mmask8(0) : static_cast<__mmask8>((0xFu << d) & 0xFu);
+  }
+  // Four interleaved points (x0, y0, ..., x3, y3) as (x0..x3, y0..y3), and back.
+  static __m512d split4(__m512d xy) {
+    return _mm512_permutexvar_pd(_mm512_setr_epi64(0, 2, 4, 6, 1, 3, 5, 7), xy);
+  }
+  static __m512d join4(__m256d x, __m256d y) {
+    return _mm512_permutexvar_pd(_mm512_setr_epi64(0, 4, 1, 5, 2, 6, 3, 7),
+                                 _mm512_insertf64x4(_mm512_castpd256_pd512(x), y, 1));
+  }
+  static double sum4(__m256d v) {
+    const __m128d a = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(a, _mm_unpackhi_pd(a, a)));
+  }
+  // Four consecutive particles from j (fewer at the end of the run): x and y
+  // de-interleaved, and the masks of the lanes and of the doubles.
+  struct Group4 {
+    __m256d x, y;
+    __mmask8 lanes, doubles;
+    Group4(const Vec2* pos, Index j, Index j1) {
+      const unsigned left = static_cast<unsigned>(std::min<Index>(j1 - j, 4));
+      lanes = static_cast<__mmask8>((1u << left) - 1);
+      doubles = static_cast<__mmask8>((1u << (2 * left)) - 1);
+      const __m512d xy =
+          split4(_mm512_maskz_loadu_pd(doubles, reinterpret_cast<const double*>(pos + j)));
+      x = _mm512_castpd512_pd256(xy);
+      y = _mm512_extractf64x4_pd(xy, 1);
+    }
+  };
+  struct Pairs4 {
+    __m256d x, y;
+  };
+  // Another per-particle Vec2 array (velocities) for the group's particles.
+  static Pairs4 deinterleave(const Vec2* v, Index j, const Group4& g) {
+    const __m512d xy =
+        split4(_mm512_maskz_loadu_pd(g.doubles, reinterpret_cast<const double*>(v + j)));
+    return {_mm512_castpd512_pd256(xy), _mm512_extractf64x4_pd(xy, 1)};
+  }
+  static void add_shares(double* out, const Group4& g, __m256d fjx, __m256d fjy) {
+    _mm512_mask_storeu_pd(out, g.doubles,
+                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.doubles, out), join4(fjx, fjy)));
+  }
+  // The traversal's arithmetic on either width.
+  static __m512d splat(__m512d, double v) { return _mm512_set1_pd(v); }
+  static __m256d splat(__m256d, double v) { return _mm256_set1_pd(v); }
+  static __m512d minus(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
+  static __m256d minus(__m256d a, __m256d b) { return _mm256_sub_pd(a, b); }
+  static __m512d norm2(__m512d dx, __m512d dy) {
+    return _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
+  }
+  static __m256d norm2(__m256d dx, __m256d dy) {
+    return _mm256_fmadd_pd(dx, dx, _mm256_mul_pd(dy, dy));
+  }
+  static __mmask8 below(__mmask8 live, __m512d a, __m512d b) {
+    return _mm512_mask_cmp_pd_mask(live, a, b, _CMP_LT_OQ);
+  }
+  static __mmask8 below(__mmask8 live, __m256d a, __m256d b) {
+    return _mm256_mask_cmp_pd_mask(live, a, b, _CMP_LT_OQ);
+  }
+  static double sum_lanes(__m512d v) { return _mm512_reduce_add_pd(v); }
+  static double sum_lanes(__m256d v) { return sum4(v); }
 #endif
 
  public:
-  static constexpr bool kAvailable = kVector8;
+  static constexpr bool kAvailable = SPHFLUID_CELL_PAIRS && kVector8;
 
   // Cuts the grid's rows into at most `count` blocks of whole rows: block k
   // starts at the first row boundary at or past k n / count particles, so the
@@ -128,7 +212,7 @@ class CellPairs {
   Index block_row(Index b) const { return rows_[b]; }  // first row of block b (b = blocks(): ny)
   std::size_t bytes() const { return rows_.capacity() * sizeof(Index); }
 
-#if defined(__AVX512F__)
+#if SPHFLUID_CELL_PAIRS
   // After a block's pass its particles' sums are complete (no other block
   // adds to them): finish(first, last) is called on them by the same thread,
   // in the same parallel loop.
@@ -204,19 +288,19 @@ class CellPairs {
     return pairs;
   }
 
-  // Pair sums into a (overwritten) by the same cluster loop: pair.load(j, g)
-  // returns the per-group data of the particles j; pair.add(i, data, in, dx,
-  // dy, r2, fi, fj) adds, on the lanes in, i's share to fi and j's to fj
-  // (r = x_i - x_j).
+  // Pair sums into a (overwritten) by the same cluster loop, in groups of
+  // Pair::kLanes (8 or 4): pair.load(j, g) returns the per-group data of the
+  // particles j; pair.add(i, data, in, dx, dy, r2, fi, fj) adds, on the lanes
+  // in, i's share to fi and j's to fj (r = x_i - x_j).
   template <class Pair, class Finish = NoFinish>
   void pair_sums(const CellGrid& grid, const Vec2* x, Real h, Vec2* a, int threads,
                  const Pair& pair, Finish finish = {}) const {
+    constexpr Index kW = Pair::kLanes;
+    using V = typename Pair::V;
+    using G = std::conditional_t<kW == 8, Group, Group4>;
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
-    const __m512d h2 = _mm512_set1_pd(h * h), zero = _mm512_setzero_pd();
-    // Lanes (x0, y0, x1, y1, ...) back from separate x and y registers.
-    const __m512i lo_xy = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
-    const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+    const V zero{}, h2 = splat(zero, h * h);
     const Index nb = blocks();
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (Index b = 0; b < nb; ++b) {
@@ -230,33 +314,26 @@ class CellPairs {
           for (Index q0 = s0; q0 < s1; q0 += kPairTile) {
             with_tile<kPairTile>(s1 - q0, [&](auto tile) {
               constexpr int k = decltype(tile)::value;
-              __m512d fx[k], fy[k];
+              V fx[k], fy[k];
               for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
               auto run = [&](Index j0, Index j1, bool own, bool scatter) {
-                for (Index j = j0; j < j1; j += 8) {
-                  const Group g(x, j, j1);
+                for (Index j = j0; j < j1; j += kW) {
+                  const G g(x, j, j1);
                   const auto data = pair.load(j, g);
-                  __m512d fjx = zero, fjy = zero;
+                  V fjx = zero, fjy = zero;
                   for (int q = 0; q < k; ++q) {
                     const Index i = q0 + q;
-                    const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                    const __mmask8 live =
+                        own ? g.lanes & (kW == 8 ? after(i, j) : after4(i, j)) : g.lanes;
                     if (!live) continue;
-                    const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
-                    const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
-                    const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
-                    const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
+                    const V dx = minus(splat(zero, x[i].x()), g.x);
+                    const V dy = minus(splat(zero, x[i].y()), g.y);
+                    const V r2 = norm2(dx, dy);
+                    const __mmask8 in = below(live, r2, h2);
                     if (!in) continue;
                     pair.add(i, data, in, dx, dy, r2, fx[q], fy[q], fjx, fjy);
                   }
-                  if (scatter) {
-                    double* out = ad + 2 * static_cast<std::size_t>(j);
-                    const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
-                    const __m512d hi = _mm512_permutex2var_pd(fjx, hi_xy, fjy);
-                    _mm512_mask_storeu_pd(out, g.lo,
-                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.lo, out), lo));
-                    _mm512_mask_storeu_pd(out + 8, g.hi,
-                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.hi, out + 8), hi));
-                  }
+                  if (scatter) add_shares(ad + 2 * static_cast<std::size_t>(j), g, fjx, fjy);
                 }
               };
               run(q0 + 1, runs.own_end, true, true);
@@ -264,8 +341,8 @@ class CellPairs {
               run(runs.below0, runs.below1, false, false);
               for (int q = 0; q < k; ++q) {
                 Vec2& ai = a[q0 + q];
-                ai.x() += _mm512_reduce_add_pd(fx[q]);
-                ai.y() += _mm512_reduce_add_pd(fy[q]);
+                ai.x() += sum_lanes(fx[q]);
+                ai.y() += sum_lanes(fy[q]);
               }
             });
           }
@@ -280,6 +357,8 @@ class CellPairs {
   // rho_j lap W_visc (v_j - v_i); for j the same with 1 / rho_i and r_ji = -r_ij.
   template <bool Viscosity>
   struct SeedPair {
+    static constexpr Index kLanes = 8;
+    using V = __m512d;
     const Vec2* v;
     const Real* p;
     const Real* inv_rho;
@@ -335,68 +414,70 @@ class CellPairs {
   // antisymmetric, so j gets minus what i gets.
   template <bool Viscosity>
   struct WcsphPair {
+    static constexpr Index kLanes = 4;  // its arithmetic outweighs the traversal
+    using V = __m256d;
     const Vec2* v;
     const Real* rho;
     const Real* por2;     // p / rho^2
     const Real* inv_rho;
     // Wendland's 1/h and gradient factor, m, eps^2, alpha c0 hs, 2 m eta
-    __m512d inv_h, grad, m, eps2, av, m_eta2;
+    __m256d inv_h, grad, m, eps2, av, m_eta2;
     WcsphPair(const Vec2* v_, const Real* rho_, const Real* por2_, const Real* inv_rho_,
               Real inv_h_, Real grad_, Real m_, Real eps2_, Real av_, Real m_eta2_)
-        : v(v_), rho(rho_), por2(por2_), inv_rho(inv_rho_), inv_h(_mm512_set1_pd(inv_h_)),
-          grad(_mm512_set1_pd(grad_)), m(_mm512_set1_pd(m_)), eps2(_mm512_set1_pd(eps2_)),
-          av(_mm512_set1_pd(av_)), m_eta2(_mm512_set1_pd(m_eta2_)) {}
+        : v(v_), rho(rho_), por2(por2_), inv_rho(inv_rho_), inv_h(_mm256_set1_pd(inv_h_)),
+          grad(_mm256_set1_pd(grad_)), m(_mm256_set1_pd(m_)), eps2(_mm256_set1_pd(eps2_)),
+          av(_mm256_set1_pd(av_)), m_eta2(_mm256_set1_pd(m_eta2_)) {}
     struct Data {
-      __m512d rho, por2, ir, vx, vy;
+      __m256d rho, por2, ir, vx, vy;
     };
-    Data load(Index j, const Group& g) const {
+    Data load(Index j, const Group4& g) const {
       Data d{};
-      d.rho = _mm512_maskz_loadu_pd(g.lanes, rho + j);
-      d.por2 = _mm512_maskz_loadu_pd(g.lanes, por2 + j);
-      if constexpr (Viscosity) d.ir = _mm512_maskz_loadu_pd(g.lanes, inv_rho + j);
-      const Pairs8 vj = deinterleave(v, j, g);
+      d.rho = _mm256_maskz_loadu_pd(g.lanes, rho + j);
+      d.por2 = _mm256_maskz_loadu_pd(g.lanes, por2 + j);
+      if constexpr (Viscosity) d.ir = _mm256_maskz_loadu_pd(g.lanes, inv_rho + j);
+      const Pairs4 vj = deinterleave(v, j, g);
       d.vx = vj.x;
       d.vy = vj.y;
       return d;
     }
-    void add(Index i, const Data& dj, __mmask8 in, __m512d dx, __m512d dy, __m512d r2,
-             __m512d& fix, __m512d& fiy, __m512d& fjx, __m512d& fjy) const {
-      const __m512d zero = _mm512_setzero_pd();
+    void add(Index i, const Data& dj, __mmask8 in, __m256d dx, __m256d dy, __m256d r2,
+             __m256d& fix, __m256d& fiy, __m256d& fjx, __m256d& fjy) const {
+      const __m256d zero = _mm256_setzero_pd();
       // grad W = grad (1 - q)^3 r, q = r / h (zero from q = 1 on)
-      const __m512d q = _mm512_mul_pd(_mm512_sqrt_pd(r2), inv_h);
-      const __m512d a = _mm512_max_pd(_mm512_sub_pd(_mm512_set1_pd(1), q), zero);
-      const __m512d s = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(grad, a), a), a);
-      const __m512d gwx = _mm512_mul_pd(s, dx), gwy = _mm512_mul_pd(s, dy);
-      const __m512d vijx = _mm512_sub_pd(_mm512_set1_pd(v[i].x()), dj.vx);
-      const __m512d vijy = _mm512_sub_pd(_mm512_set1_pd(v[i].y()), dj.vy);
-      const __m512d vr = _mm512_fmadd_pd(vijx, dx, _mm512_mul_pd(vijy, dy));
+      const __m256d q = _mm256_mul_pd(_mm256_sqrt_pd(r2), inv_h);
+      const __m256d a = _mm256_max_pd(_mm256_sub_pd(_mm256_set1_pd(1), q), zero);
+      const __m256d s = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(grad, a), a), a);
+      const __m256d gwx = _mm256_mul_pd(s, dx), gwy = _mm256_mul_pd(s, dy);
+      const __m256d vijx = _mm256_sub_pd(_mm256_set1_pd(v[i].x()), dj.vx);
+      const __m256d vijy = _mm256_sub_pd(_mm256_set1_pd(v[i].y()), dj.vy);
+      const __m256d vr = _mm256_fmadd_pd(vijx, dx, _mm256_mul_pd(vijy, dy));
       // one division for both viscosities
-      const __m512d inv_r2e =
-          _mm512_maskz_div_pd(in, _mm512_set1_pd(1), _mm512_add_pd(r2, eps2));
-      __m512d coef = _mm512_add_pd(_mm512_set1_pd(por2[i]), dj.por2);
+      const __m256d inv_r2e =
+          _mm256_maskz_div_pd(in, _mm256_set1_pd(1), _mm256_add_pd(r2, eps2));
+      __m256d coef = _mm256_add_pd(_mm256_set1_pd(por2[i]), dj.por2);
       // + Pi_ij = -av vr / (r^2 + eps^2) * 2 / (rho_i + rho_j) when approaching
-      const __mmask8 closing = _mm512_mask_cmp_pd_mask(in, vr, zero, _CMP_LT_OQ);
+      const __mmask8 closing = _mm256_mask_cmp_pd_mask(in, vr, zero, _CMP_LT_OQ);
       if (closing) {
-        const __m512d t = _mm512_mul_pd(
-            _mm512_mul_pd(_mm512_mul_pd(av, vr), inv_r2e), _mm512_set1_pd(2));
-        coef = _mm512_mask_sub_pd(
+        const __m256d t = _mm256_mul_pd(
+            _mm256_mul_pd(_mm256_mul_pd(av, vr), inv_r2e), _mm256_set1_pd(2));
+        coef = _mm256_mask_sub_pd(
             coef, closing, coef,
-            _mm512_maskz_div_pd(closing, t, _mm512_add_pd(_mm512_set1_pd(rho[i]), dj.rho)));
+            _mm256_maskz_div_pd(closing, t, _mm256_add_pd(_mm256_set1_pd(rho[i]), dj.rho)));
       }
-      const __m512d mc = _mm512_mul_pd(m, coef);
-      __m512d fx = _mm512_maskz_fnmadd_pd(in, mc, gwx, zero);
-      __m512d fy = _mm512_maskz_fnmadd_pd(in, mc, gwy, zero);
+      const __m256d mc = _mm256_mul_pd(m, coef);
+      __m256d fx = _mm256_maskz_fnmadd_pd(in, mc, gwx, zero);
+      __m256d fy = _mm256_maskz_fnmadd_pd(in, mc, gwy, zero);
       if constexpr (Viscosity) {  // Morris, Fox & Zhu (1997)
-        const __m512d rgw = _mm512_fmadd_pd(dx, gwx, _mm512_mul_pd(dy, gwy));
-        const __m512d mi = _mm512_mul_pd(m_eta2, _mm512_set1_pd(inv_rho[i]));
-        const __m512d c = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(mi, dj.ir), rgw), inv_r2e);
-        fx = _mm512_mask3_fmadd_pd(c, vijx, fx, in);
-        fy = _mm512_mask3_fmadd_pd(c, vijy, fy, in);
+        const __m256d rgw = _mm256_fmadd_pd(dx, gwx, _mm256_mul_pd(dy, gwy));
+        const __m256d mi = _mm256_mul_pd(m_eta2, _mm256_set1_pd(inv_rho[i]));
+        const __m256d c = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(mi, dj.ir), rgw), inv_r2e);
+        fx = _mm256_mask3_fmadd_pd(c, vijx, fx, in);
+        fy = _mm256_mask3_fmadd_pd(c, vijy, fy, in);
       }
-      fix = _mm512_add_pd(fix, fx);
-      fiy = _mm512_add_pd(fiy, fy);
-      fjx = _mm512_sub_pd(fjx, fx);
-      fjy = _mm512_sub_pd(fjy, fy);
+      fix = _mm256_add_pd(fix, fx);
+      fiy = _mm256_add_pd(fiy, fy);
+      fjx = _mm256_sub_pd(fjx, fx);
+      fjy = _mm256_sub_pd(fjy, fy);
     }
   };
 

@@ -434,7 +434,7 @@ void Solver::sort_and_find_neighbours(KernelOfR2 w) {
 // blocks of cell rows are cut afresh from the sorted particles.
 template <class KernelOfR2>
 void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
-#if defined(__AVX512F__)
+#if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
     const Index n = size();
     sort_by_cell();
@@ -454,7 +454,7 @@ template void Solver::sort_and_sum_density_by_cells(Wendland::OfR2);
 
 template <bool Viscosity, class Finish>
 void Solver::seed_forces_by_cells(Finish finish) {
-#if defined(__AVX512F__)
+#if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
     cell_pairs_.seed_forces<Viscosity>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
                                        inv_rho_.data(), kern_.h,

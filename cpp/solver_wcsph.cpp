@@ -112,7 +112,7 @@ void Solver::wcsph_pairs_once() {
 // The same by cell clusters (cell_pairs.hpp), without lists.
 template <bool Viscosity>
 void Solver::wcsph_forces_by_cells() {
-#if defined(__AVX512F__)
+#if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
     const SimParams& P = params_;
     const Real hs = Real(0.5) * P.h;
