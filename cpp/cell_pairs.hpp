@@ -1,4 +1,4 @@
-// Pair sums by cell clusters, without neighbour lists (AVX-512), for the
+// Pair sums by cell clusters, without neighbour lists (AVX-512F and VL), for the
 // density and the pair forces of both methods: the particles of one cell, a
 // tile of up to eight (four for the forces) at a time, against groups of eight
 // (four for wcsph's forces) of the contiguous candidate runs of half the

@@ -137,7 +137,8 @@ void Solver::find_ghosts(bool interior_only) {
     // near, and their rows are left empty in one store.
     // Each particle's clearance goes to wall_clear2_ for the integration: the
     // squared length of a path from it that meets no wall (WallSet::safe_path2
-    // of the distance to the nearest wall of its lookup cell).
+    // of the distance to the nearest wall of its lookup cell). In float: h^2
+    // and its margin 2e-6 h^2 are normal floats for h from 1e-16 m to 1e19 m.
     wall_clear2_.resize(static_cast<std::size_t>(size()) + 8);
     float* clear2 = wall_clear2_.data();
     auto clearance = [&](Real d2) { return static_cast<float>(walls_.safe_path2(d2)); };
@@ -447,7 +448,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
   }
 #endif
   (void)w;
-  throw std::logic_error("the cell-cluster loops need AVX-512");
+  throw std::logic_error("the cell-cluster loops need AVX-512F and VL");
 }
 
 template void Solver::sort_and_sum_density_by_cells(Wendland::OfR2);
@@ -465,7 +466,7 @@ void Solver::seed_forces_by_cells(Finish finish) {
   }
 #endif
   (void)finish;
-  throw std::logic_error("the cell-cluster loops need AVX-512");
+  throw std::logic_error("the cell-cluster loops need AVX-512F and VL");
 }
 
 template void Solver::sort_and_find_neighbours<false, false>(Wendland::OfR2);

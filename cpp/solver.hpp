@@ -142,9 +142,10 @@ class Solver {
   template <bool Periodic, bool Once, class KernelOfR2>
   void sort_and_find_neighbours(KernelOfR2 w);
   // The fluid pairs by cell clusters, without lists (cell_pairs.hpp), for
-  // both methods: where AVX-512 is available and without periodic seams; for
-  // the seed also without surface tension (its colour field keeps the lists;
-  // wcsph's surface energy reads none, surface_energy.hpp).
+  // both methods: where AVX-512F and VL are available (SPHFLUID_CELL_PAIRS)
+  // and without periodic seams; for the seed also without surface tension
+  // (its colour field keeps the lists; wcsph's surface energy reads none,
+  // surface_energy.hpp).
   static constexpr bool by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & (kPeriodic | kSurfaceTension)) == 0;
   }

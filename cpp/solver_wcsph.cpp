@@ -45,7 +45,7 @@ void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   const Real half = Real(0.5) * dt;
   // The drift starts from the positions of the last evaluation (the end of
   // the previous step, or compute_forces after the state or the walls
-  // changed), so the wall-cell marks of its find_ghosts hold for them.
+  // changed), so the wall clearances of its find_ghosts hold for them.
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);
   remove_outside_domain();
@@ -125,7 +125,7 @@ void Solver::wcsph_forces_by_cells() {
     return;
   }
 #endif
-  throw std::logic_error("the cell-cluster loops need AVX-512");
+  throw std::logic_error("the cell-cluster loops need AVX-512F and VL");
 }
 
 template <unsigned F>

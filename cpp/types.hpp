@@ -17,9 +17,9 @@ using Id = std::int64_t;     // stable particle identity
 
 constexpr Real kPi = Real(3.14159265358979323846);
 
-// Whether the hand-written AVX-512 loops run (the neighbour filter, the cell
-// clusters): built for a CPU that has it, with Real = double and Vec2 two
-// packed doubles.
+// Whether the hand-written AVX-512 loops run (the neighbour filter; the cell
+// clusters, which need VL too): built for a CPU that has it, with Real =
+// double and Vec2 two packed doubles.
 #if defined(__AVX512F__)
 constexpr bool kVector8 = sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double);
 
