@@ -10,7 +10,7 @@
 namespace sphfluid {
 
 void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
-                    std::vector<Index>& order, const PeriodicBox& box) {
+                    std::vector<Index>& order, const PeriodicBox& box, bool cells_in_order) {
   // Cells a hair larger than asked: the rounding of two cell coordinates then
   // cannot put two points closer than cell_size two cells apart (with up to
   // ~1e7 cells along an axis).
@@ -81,8 +81,8 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   ny_ = static_cast<Index>(cy);
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
 
-  // cell_of_ first holds each particle's cell in input order, then (below) in
-  // sorted order: one array of n instead of two.
+  // cell_of_ first holds each particle's cell in input order, then (below,
+  // with cells_in_order) in sorted order: one array of n instead of two.
   cell_of_.resize(n);
   cell_start_.assign(n_cells + 1, 0);
   order.resize(n);
@@ -160,6 +160,7 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       for (Index i = b0; i < b1; ++i) order[start[cell[i]] + mine[cell[i]]++] = i;
     }
   }
+  if (!cells_in_order) return;
   // Sorted, the cells are the runs of cell_start_.
 #pragma omp parallel for schedule(static) num_threads(nt)
   for (std::size_t c = 0; c < n_cells; ++c)

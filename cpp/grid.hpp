@@ -25,9 +25,11 @@ class CellGrid {
   // The sort uses the threads from kParallelMin particles on (parallel.hpp).
 
   // Along box's periodic axes the positions must lie in the box. The cells are
-  // made 1e-8 larger than cell_size (see grid.cpp).
+  // made 1e-8 larger than cell_size (see grid.cpp). Without cells_in_order the
+  // per-particle cells are left in input order (the neighbour lists below
+  // need them sorted; the cell clusters read the cell ranges alone).
   void sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
-            const PeriodicBox& box = PeriodicBox());
+            const PeriodicBox& box = PeriodicBox(), bool cells_in_order = true);
 
   // After the particles were permuted by `order`: neighbour list for radius h.
   // visit(i, nbrs, count, sum) runs right after particle i's list is built,
@@ -288,7 +290,7 @@ class CellGrid {
 
   Index nx_ = 0, ny_ = 0;
   std::vector<Index> cell_start_;  // n_cells + 1 (last entry is the guard)
-  std::vector<Index> cell_of_;     // cell of each particle, in sorted order
+  std::vector<Index> cell_of_;     // cell of each particle, in sorted order (cells_in_order)
   std::vector<Index> cursor_;  // scatter position per cell (per thread and cell)
 };
 

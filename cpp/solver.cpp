@@ -389,8 +389,8 @@ void Solver::evaluate_impl() {
   mark(kForces);
 }
 
-void Solver::sort_by_cell() {
-  grid_.sort(ps_.x.data(), size(), params_.h, team(), order_, box_);
+void Solver::sort_by_cell(bool cells_in_order) {
+  grid_.sort(ps_.x.data(), size(), params_.h, team(), order_, box_, cells_in_order);
   ps_.permute_state(order_, team());
   mark(kSort);
 }
@@ -438,7 +438,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 #if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
     const Index n = size();
-    sort_by_cell();
+    sort_by_cell(false);  // the cell ranges alone
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_blocks());
     cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,

@@ -152,7 +152,9 @@ class Solver {
   static constexpr bool wcsph_by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & kPeriodic) == 0;
   }
-  void sort_by_cell();  // the particles into cell order (the sort phase)
+  // The particles into cell order (the sort phase); the grid keeps each
+  // particle's cell in that order only if asked (the neighbour lists need it).
+  void sort_by_cell(bool cells_in_order = true);
   template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);
   template <bool Viscosity, class Finish> void seed_forces_by_cells(Finish finish);
   // The per-particle ends of the seed's density and force passes, for the
