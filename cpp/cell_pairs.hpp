@@ -123,7 +123,9 @@ class CellPairs {
   // one. Lanes of the group of four at j after i:
   static __mmask8 after4(Index i, Index j) {
     const Index d = i + 1 - j;
-    return d <= 0 ? __mmask8(0xF) : d >= 4 ? __mmask8(0) : static_cast<__mmask8>((0xFu << d) & 0xFu);
+    return d <= 0   ? __mmask8(0xF)
+           : d >= 4 ? __mmask8(0)
+                    : static_cast<__mmask8>((0xFu << d) & 0xFu);
   }
   // Four interleaved points (x0, y0, ..., x3, y3) as (x0..x3, y0..y3), and back.
   static __m512d split4(__m512d xy) {
@@ -266,8 +268,9 @@ class CellPairs {
                     if (count) met += static_cast<unsigned>(__builtin_popcount(in));
                   }
                   if (scatter)
-                    _mm512_mask_storeu_pd(rho + j, g.lanes,
-                                          _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
+                    _mm512_mask_storeu_pd(
+                        rho + j, g.lanes,
+                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j), wj));
                 }
                 return met;
               };

@@ -108,14 +108,12 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       for (; i + 8 <= b1; i += 8) {
         const double* p = reinterpret_cast<const double*>(x + i);
         const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
-        const __m256i ix = _mm256_min_epi32(
-            _mm256_max_epi32(_mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), invx)),
-                             zero),
-            last_x);
-        const __m256i iy = _mm256_min_epi32(
-            _mm256_max_epi32(_mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), invy)),
-                             zero),
-            last_y);
+        const __m256i tx =
+            _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), invx));
+        const __m256i ty =
+            _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), invy));
+        const __m256i ix = _mm256_min_epi32(_mm256_max_epi32(tx, zero), last_x);
+        const __m256i iy = _mm256_min_epi32(_mm256_max_epi32(ty, zero), last_y);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell + i),
                             _mm256_add_epi32(_mm256_mullo_epi32(iy, width), ix));
       }
