@@ -76,10 +76,12 @@ class CellPairs {
   }
 
 #if SPHFLUID_CELL_PAIRS
-  // Lanes of the group at j whose particle comes after i (j + lane > i).
+  // Lanes of the group of W at j whose particle comes after i (j + lane > i).
+  template <int W>
   static __mmask8 after(Index i, Index j) {
+    constexpr unsigned all = (1u << W) - 1;
     const Index d = i + 1 - j;  // the first lane after i
-    return d <= 0 ? __mmask8(0xFF) : d >= 8 ? __mmask8(0) : static_cast<__mmask8>(0xFFu << d);
+    return d <= 0 ? __mmask8(all) : d >= W ? __mmask8(0) : static_cast<__mmask8>((all << d) & all);
   }
   // Eight consecutive particles from j (fewer at the end of the run): their
   // x and y de-interleaved, and the masks of the lanes and of the doubles.
@@ -120,13 +122,7 @@ class CellPairs {
   // arithmetic outweighs the traversal (wcsph's): a particle meets about 2.5
   // pairs per eight candidates, and on CPUs that split 512-bit arithmetic in
   // two halves (AMD Zen 4) a four-lane evaluation costs half an eight-lane
-  // one. Lanes of the group of four at j after i:
-  static __mmask8 after4(Index i, Index j) {
-    const Index d = i + 1 - j;
-    return d <= 0   ? __mmask8(0xF)
-           : d >= 4 ? __mmask8(0)
-                    : static_cast<__mmask8>((0xFu << d) & 0xFu);
-  }
+  // one.
   // Four interleaved points (x0, y0, ..., x3, y3) as (x0..x3, y0..y3), and back.
   static __m512d split4(__m512d xy) {
     return _mm512_permutexvar_pd(_mm512_setr_epi64(0, 2, 4, 6, 1, 3, 5, 7), xy);
@@ -255,7 +251,7 @@ class CellPairs {
                   __m512d wj = _mm512_setzero_pd();
                   for (int q = 0; q < k; ++q) {
                     const Index i = q0 + q;
-                    const __mmask8 live = own ? g.lanes & after(i, j) : g.lanes;
+                    const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
                     if (!live) continue;
                     const __m512d dx = _mm512_sub_pd(_mm512_set1_pd(x[i].x()), g.x);
                     const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
@@ -326,8 +322,7 @@ class CellPairs {
                   V fjx = zero, fjy = zero;
                   for (int q = 0; q < k; ++q) {
                     const Index i = q0 + q;
-                    const __mmask8 live =
-                        own ? g.lanes & (kW == 8 ? after(i, j) : after4(i, j)) : g.lanes;
+                    const __mmask8 live = own ? g.lanes & after<kW>(i, j) : g.lanes;
                     if (!live) continue;
                     const V dx = minus(splat(zero, x[i].x()), g.x);
                     const V dy = minus(splat(zero, x[i].y()), g.y);

@@ -25,9 +25,9 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   // coordinate is passed over), eight points at a time where AVX-512 runs.
 #pragma omp parallel num_threads(nt) reduction(min : lx, ly) reduction(max : hx, hy)
   {
-    const int t = thread_rank(), team = thread_team_size();
-    Index i = static_cast<Index>(std::int64_t(n) * t / team);
-    const Index b1 = static_cast<Index>(std::int64_t(n) * (t + 1) / team);
+    const Share mine = share_of(n, thread_rank(), thread_team_size());
+    Index i = mine.first;
+    const Index b1 = mine.last;
 #if defined(__AVX512F__)
     if constexpr (kVector8) {
       __m512d vlx = _mm512_set1_pd(lx), vly = _mm512_set1_pd(ly);
@@ -136,8 +136,7 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
 #pragma omp parallel num_threads(nt)
     {
       const int t = thread_rank(), team = thread_team_size();
-      const Index b0 = static_cast<Index>(std::int64_t(n) * t / team);
-      const Index b1 = static_cast<Index>(std::int64_t(n) * (t + 1) / team);
+      const auto [b0, b1] = share_of(n, t, team);
       Index* mine = cursor_.data() + static_cast<std::size_t>(t) * n_cells;
       cells_of(b0, b1);
       for (Index i = b0; i < b1; ++i) ++mine[cell[i]];

@@ -38,6 +38,15 @@ inline constexpr Index kParallelMin = 1'000;
 // The threads for a loop over n particles.
 inline int threads_for(Index n, int threads) { return n >= kParallelMin ? threads : 1; }
 
+// Share t of n items cut into `parts` contiguous, near-equal ranges: [first, last).
+struct Share {
+  Index first, last;
+};
+inline Share share_of(Index n, int t, int parts) {
+  return {static_cast<Index>(std::int64_t(n) * t / parts),
+          static_cast<Index>(std::int64_t(n) * (t + 1) / parts)};
+}
+
 inline int thread_rank() {
 #ifdef _OPENMP
   return omp_get_thread_num();
@@ -112,15 +121,7 @@ class Csr {
   void for_each_nonempty_row(int threads, F f) const {
     const int blocks = static_cast<int>(lo_.size()) - 1;
 #pragma omp parallel for schedule(static) num_threads(threads)
-    for (int t = 0; t < blocks; ++t) {
-      const Index lo = lo_[t], hi = lo_[t + 1];
-      const T* base = chunks_[t].begin();
-      for (Index i = lo; i < hi; ++i) {
-        const Index b = start_[i];
-        const Index e = i + 1 == hi ? static_cast<Index>(chunks_[t].size()) : start_[i + 1];
-        if (b != e) f(i, Row<T>{base + b, base + e});
-      }
-    }
+    for (int t = 0; t < blocks; ++t) for_each_nonempty_row_in(lo_[t], lo_[t + 1], f);
   }
   // The same for the rows [i0, i1) of the last build, on the calling thread.
   template <class F>

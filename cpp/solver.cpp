@@ -516,9 +516,10 @@ void Solver::compute_density() {
   inv_rho_.resize(n);
   const int nt = team();
 #pragma omp parallel for schedule(static) num_threads(nt)
-  for (int t = 0; t < nt; ++t)
-    finish_density<F>(static_cast<Index>(std::int64_t(n) * t / nt),
-                      static_cast<Index>(std::int64_t(n) * (t + 1) / nt));
+  for (int t = 0; t < nt; ++t) {
+    const Share s = share_of(n, t, nt);
+    finish_density<F>(s.first, s.last);
+  }
 }
 
 // The fluid pairs of compute_accelerations (pressure, viscosity, and with
@@ -676,9 +677,10 @@ void Solver::compute_accelerations() {
       const Index n = size();
       const int nt = team();
 #pragma omp parallel for schedule(static) num_threads(nt)
-      for (int t = 0; t < nt; ++t)
-        finish_accelerations<F>(static_cast<Index>(std::int64_t(n) * t / nt),
-                                static_cast<Index>(std::int64_t(n) * (t + 1) / nt));
+      for (int t = 0; t < nt; ++t) {
+        const Share s = share_of(n, t, nt);
+        finish_accelerations<F>(s.first, s.last);
+      }
       return;
     }
   }
@@ -756,7 +758,7 @@ void Solver::integrate(Real dt, Real kick) {
   bool bad = false;
   Real v2_sum = 0;
   // The wall clearances serve this integration only.
-  [[maybe_unused]] const bool near_fresh = wall_clear_fresh_;
+  [[maybe_unused]] const bool clear_fresh = wall_clear_fresh_;
   wall_clear_fresh_ = false;
 #if defined(__AVX512F__) && defined(__AVX512VL__)
   // Eight particles at a time (without periodic seams): the same arithmetic on
@@ -772,8 +774,8 @@ void Solver::integrate(Real dt, Real kick) {
     double* xn = reinterpret_cast<double*>(x_new);
     double* vn = reinterpret_cast<double*>(v_new);
     // The clearances found by this step's find_ghosts, for the positions x.
-    [[maybe_unused]] const bool near_known =
-        near_fresh && wall_clear2_.size() >= static_cast<std::size_t>(n) + 8;
+    [[maybe_unused]] const bool clear_known =
+        clear_fresh && wall_clear2_.size() >= static_cast<std::size_t>(n) + 8;
     [[maybe_unused]] const float* clear2_of = wall_clear2_.data();
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
     reduction(+ : v2_sum)
@@ -811,7 +813,7 @@ void Solver::integrate(Real dt, Real kick) {
         const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(vx) & finite(vy);
         const __m512d from_x = x_of8(x_lo, x_hi), from_y = y_of8(x_lo, x_hi);
         __mmask8 may;
-        if (near_known) {
+        if (clear_known) {
           // A path shorter than the particle's clearance meets no wall: every
           // wall within h of it is in its lookup cell (none where no wall
           // comes near, nor off the lookup grid), and the clearance is less
