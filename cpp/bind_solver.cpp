@@ -79,6 +79,8 @@ void bind_solver(py::module_& m) {
       .def_readwrite("restitution", &SimParams::restitution,
                      "normal restitution of the wall reflection, in [0, 1]")
       .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)")
+      .def_readwrite("float_pairs", &SimParams::float_pairs,
+                     "the seed's pair forces in single precision where the cell clusters run")
       .def_readwrite("cfl", &SimParams::cfl, "CFL factor of the adaptive time step")
       .def_readwrite("dt_max", &SimParams::dt_max, "cap on the adaptive time step, s (0: none)")
       .def_readwrite("surface_length", &SimParams::surface_length,
@@ -163,6 +165,10 @@ void bind_solver(py::module_& m) {
           py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.")
       .def_property("threads", &Solver::threads, &Solver::set_threads,
                     "OpenMP threads the step may use (0: OpenMP default)")
+      .def_property_readonly("float_pairs", &Solver::float_pairs,
+                             "whether the pair forces run in single precision: asked for "
+                             "(SimParams.float_pairs), seed, and the step runs them by cell "
+                             "clusters (no surface tension, no periodic axis, an AVX-512 build)")
       .def_property_readonly("threads_in_use", &Solver::team,
                              "threads the step's loops use now: `threads`, or 1 below 1,000 "
                              "particles, where a second thread costs more than it gains")

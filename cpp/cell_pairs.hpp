@@ -38,6 +38,29 @@
 
 namespace sphfluid {
 
+// The seed's pair sums in single precision (SimParams::float_pairs): the
+// density and the pair forces by the same cell clusters in groups of eight
+// floats (256-bit lanes, which CPUs that split 512-bit arithmetic in two run at
+// twice the rate of eight doubles). Each position is taken relative to the
+// corner of its cell, in units of the cell width w (0 <= u < 1), and a
+// candidate's is moved by the whole cells between the two, so a separation
+// keeps float's precision, about 6e-8 w, at any resolution and anywhere in the
+// domain. p / rho0, rho0 / rho and v are rounded once per evaluation. The
+// quantities are scaled to be of order one whatever the units (no overflow nor
+// underflow from powers of h), and the sums go to double: each particle's
+// eight lanes and each group's shares are widened before they are added.
+struct SeedFloats {
+  std::vector<float> ux, uy, vx, vy;  // position in its cell / w; velocity
+  std::vector<float> p, ir;           // p / rho0, rho0 / rho
+  void resize(Index n) {
+    for (auto* a : {&ux, &uy, &vx, &vy, &p, &ir}) a->resize(static_cast<std::size_t>(n) + 8);
+  }
+  std::size_t bytes() const {
+    return (ux.capacity() + uy.capacity() + vx.capacity() + vy.capacity() + p.capacity() +
+            ir.capacity()) * sizeof(float);
+  }
+};
+
 class CellPairs {
  private:
   // A cell's particles are taken up to kDensityTile (kPairTile) at a time, their
@@ -85,15 +108,21 @@ class CellPairs {
   }
   // Eight consecutive particles from j (fewer at the end of the run): their
   // x and y de-interleaved, and the masks of the lanes and of the doubles.
-  struct Group {
-    __m512d x, y;
+  // The lanes of a group of eight from j in a run ending at j1, and the masks of
+  // the lo and hi halves of its 16 interleaved doubles.
+  struct Lanes8 {
     __mmask8 lanes, lo, hi;
-    Group(const Vec2* pos, Index j, Index j1) {
+    Lanes8(Index j, Index j1) {
       const Index left = j1 - j;
       const unsigned doubles = 2u * static_cast<unsigned>(std::min<Index>(left, 8));
       lanes = left >= 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
       lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
       hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+    }
+  };
+  struct Group : Lanes8 {
+    __m512d x, y;
+    Group(const Vec2* pos, Index j, Index j1) : Lanes8(j, j1) {
       const double* p = reinterpret_cast<const double*>(pos + j);
       const __m512d a = _mm512_maskz_loadu_pd(lo, p), b = _mm512_maskz_loadu_pd(hi, p + 8);
       x = x_of8(a, b);
@@ -110,7 +139,7 @@ class CellPairs {
     return {x_of8(a, b), y_of8(a, b)};
   }
   // The 8-lane group's j shares (x and y lanes) added to the interleaved a.
-  static void add_shares(double* out, const Group& g, __m512d fjx, __m512d fjy) {
+  static void add_shares(double* out, const Lanes8& g, __m512d fjx, __m512d fjy) {
     const __m512i lo_xy = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
     const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
     const __m512d lo = _mm512_permutex2var_pd(fjx, lo_xy, fjy);
@@ -478,6 +507,247 @@ class CellPairs {
       fjy = _mm256_sub_pd(fjy, fy);
     }
   };
+
+  // SeedFloats' positions and velocities of the n sorted particles (the cell
+  // of each from the same arithmetic as the sort's), by the threads' shares.
+  static void fill_floats(const CellGrid& grid, const Vec2* x, const Vec2* v, Index n,
+                          int threads, SeedFloats& f) {
+    f.resize(n);
+    const Vec2 lo = grid.origin();
+    const Real inv = grid.inv_width();
+    const Index nx = grid.nx(), ny = grid.ny();
+    float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
+#pragma omp parallel num_threads(threads)
+    {
+      const Share mine = share_of(n, thread_rank(), thread_team_size());
+      Index i = mine.first;
+      const __m512d lox = _mm512_set1_pd(lo.x()), loy = _mm512_set1_pd(lo.y());
+      const __m512d iv = _mm512_set1_pd(inv);
+      const __m256i zero = _mm256_setzero_si256();
+      const __m256i last_x = _mm256_set1_epi32(nx - 1), last_y = _mm256_set1_epi32(ny - 1);
+      for (; i + 8 <= mine.last; i += 8) {
+        const double* p = reinterpret_cast<const double*>(x + i);
+        const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
+        const __m512d tx = _mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), iv);
+        const __m512d ty = _mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), iv);
+        const __m256i cx =
+            _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(tx), zero), last_x);
+        const __m256i cy =
+            _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(ty), zero), last_y);
+        _mm256_storeu_ps(ux + i, _mm512_cvtpd_ps(_mm512_sub_pd(tx, _mm512_cvtepi32_pd(cx))));
+        _mm256_storeu_ps(uy + i, _mm512_cvtpd_ps(_mm512_sub_pd(ty, _mm512_cvtepi32_pd(cy))));
+        const double* q = reinterpret_cast<const double*>(v + i);
+        const __m512d c = _mm512_loadu_pd(q), d = _mm512_loadu_pd(q + 8);
+        _mm256_storeu_ps(vx + i, _mm512_cvtpd_ps(x_of8(c, d)));
+        _mm256_storeu_ps(vy + i, _mm512_cvtpd_ps(y_of8(c, d)));
+      }
+      for (; i < mine.last; ++i) {
+        const Real tx = (x[i].x() - lo.x()) * inv, ty = (x[i].y() - lo.y()) * inv;
+        ux[i] = static_cast<float>(tx - std::clamp<Index>(static_cast<Index>(tx), 0, nx - 1));
+        uy[i] = static_cast<float>(ty - std::clamp<Index>(static_cast<Index>(ty), 0, ny - 1));
+        vx[i] = static_cast<float>(v[i].x());
+        vy[i] = static_cast<float>(v[i].y());
+      }
+    }
+  }
+
+  // A float group of eight from j of the run [j.., j1) of the row dy cells
+  // above i's (dy in -1, 0, 1): x and y relative to the corner of i's cell, in
+  // cells. Its particles before `left` lie a cell to the left of i's, from
+  // `right` on a cell to the right.
+  struct GroupF : Lanes8 {
+    __m256 x, y;
+    GroupF(const SeedFloats& f, Index j, Index j1, Index left, Index right, __m256 dy)
+        : Lanes8(j, j1) {
+      const __m256i idx =
+          _mm256_add_epi32(_mm256_set1_epi32(j), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+      const __m256 one = _mm256_set1_ps(1);
+      x = _mm256_maskz_loadu_ps(lanes, f.ux.data() + j);
+      x = _mm256_mask_sub_ps(x, _mm256_cmplt_epi32_mask(idx, _mm256_set1_epi32(left)), x, one);
+      x = _mm256_mask_add_ps(x, _mm256_cmpge_epi32_mask(idx, _mm256_set1_epi32(right)), x, one);
+      y = _mm256_add_ps(_mm256_maskz_loadu_ps(lanes, f.uy.data() + j), dy);
+    }
+  };
+  // body(j0, j1, own, scatter, below, left, right, dy) on the runs of a tile
+  // of cell (cx, cy) as in the double loops, with GroupF's cell bounds.
+  template <class Body>
+  static void float_runs(const Index* start, Index nx, Index cx, Index cy, Index q0, Index s0,
+                         Index s1, const Runs& runs, Body&& body) {
+    body(q0 + 1, runs.own_end, true, true, false, s0, s1, 0.f);
+    if (runs.above1 > runs.above0) {
+      const Index r = (cy + 1) * nx + cx;
+      body(runs.above0, runs.above1, false, runs.above_in_block, false, start[r], start[r + 1],
+           1.f);
+    }
+    if (runs.below1 > runs.below0) {
+      const Index r = (cy - 1) * nx + cx;
+      body(runs.below0, runs.below1, false, false, true, start[r], start[r + 1], -1.f);
+    }
+  }
+
+  // The seed's density in float: rho_i = m (self + c sum_j (hc^2 - |u_ij|^2)^3)
+  // over |u_ij| < hc, with u in cells, hc = h / w and c = poly6 w^6. rho holds
+  // the double sums of (hc^2 - |u|^2)^3 until a block's particles are done.
+  // Returns the number of distinct pairs.
+  std::int64_t density_float(const CellGrid& grid, const SeedFloats& f, Real h, Real m,
+                             Real self, Real c, Real* rho, int threads) const {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    const Real hc = h * grid.inv_width();
+    const __m256 hc2 = _mm256_set1_ps(static_cast<float>(hc * hc));
+    const float* ux = f.ux.data();
+    const float* uy = f.uy.data();
+    std::int64_t pairs = 0;
+    const Index nb = blocks();
+#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : pairs)
+    for (Index b = 0; b < nb; ++b) {
+      const Index y0 = rows_[b], y1 = rows_[b + 1];
+      std::fill(rho + start[y0 * nx], rho + start[y1 * nx], Real(0));
+      for (Index cy = y0; cy < y1; ++cy) {
+        for (Index cx = 0; cx < nx; ++cx) {
+          const Index cell = cy * nx + cx, s0 = start[cell], s1 = start[cell + 1];
+          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
+          for (Index q0 = s0; q0 < s1; q0 += kDensityTile) {
+            with_tile<kDensityTile>(s1 - q0, [&](auto tile) {
+              constexpr int k = decltype(tile)::value;
+              __m256 acc[k];
+              for (int q = 0; q < k; ++q) acc[q] = _mm256_setzero_ps();
+              float_runs(start, nx, cx, cy, q0, s0, s1, runs,
+                         [&](Index j0, Index j1, bool own, bool scatter, bool below, Index left,
+                             Index right, float dy) {
+                unsigned met = 0;
+                const __m256 shift = _mm256_set1_ps(dy);
+                for (Index j = j0; j < j1; j += 8) {
+                  const GroupF g(f, j, j1, left, right, shift);
+                  __m256 wj = _mm256_setzero_ps();
+                  for (int q = 0; q < k; ++q) {
+                    const Index i = q0 + q;
+                    const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
+                    if (!live) continue;
+                    const __m256 ex = _mm256_sub_ps(_mm256_set1_ps(ux[i]), g.x);
+                    const __m256 ey = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
+                    const __m256 r2 = _mm256_fmadd_ps(ex, ex, _mm256_mul_ps(ey, ey));
+                    const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, hc2, _CMP_LT_OQ);
+                    const __m256 e = _mm256_sub_ps(hc2, r2);
+                    const __m256 wv = _mm256_maskz_mul_ps(in, _mm256_mul_ps(e, e), e);
+                    acc[q] = _mm256_add_ps(acc[q], wv);
+                    wj = _mm256_add_ps(wj, wv);
+                    if (!below) met += static_cast<unsigned>(__builtin_popcount(in));
+                  }
+                  if (scatter)
+                    _mm512_mask_storeu_pd(
+                        rho + j, g.lanes,
+                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j),
+                                      _mm512_cvtps_pd(wj)));
+                }
+                pairs += met;
+              });
+              for (int q = 0; q < k; ++q) {
+                const Index i = q0 + q;
+                rho[i] = m * (self + c * (rho[i] + _mm512_reduce_add_pd(_mm512_cvtps_pd(acc[q]))));
+              }
+            });
+          }
+        }
+      }
+    }
+    return pairs;
+  }
+
+  // The seed's pair forces in float: with u in cells, hc = h / w, p^ = p / rho0
+  // and r^ = rho0 / rho, f_i = s sum_j r^_j t_ij and f_j = -s sum_i r^_i t_ij,
+  // t = (p^_i + p^_j) (hc - |u|)^2 / |u| u + l (hc - |u|) (v_j - v_i), where
+  // s = -m/2 spiky_grad w^2 and l = eta m visc_lap w / (rho0 s) (eqs. 14, 17).
+  template <bool Viscosity, class Finish>
+  void seed_forces_float(const CellGrid& grid, const SeedFloats& f, Real h, Real s, Real l,
+                         Vec2* a, int threads, Finish finish) const {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    const __m256 zero = _mm256_setzero_ps();
+    const Real hc = h * grid.inv_width();
+    const __m256 hv = _mm256_set1_ps(static_cast<float>(hc));
+    const __m256 h2 = _mm256_set1_ps(static_cast<float>(hc * hc));
+    const __m256 lap_c = _mm256_set1_ps(static_cast<float>(l));
+    const __m512d scale = _mm512_set1_pd(s);
+    const float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
+    const float *pp = f.p.data(), *ir = f.ir.data();
+    const Index nb = blocks();
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index b = 0; b < nb; ++b) {
+      const Index y0 = rows_[b], y1 = rows_[b + 1];
+      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
+      Real* const ad = reinterpret_cast<Real*>(a);
+      for (Index cy = y0; cy < y1; ++cy) {
+        for (Index cx = 0; cx < nx; ++cx) {
+          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
+          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
+          for (Index q0 = s0; q0 < s1; q0 += kPairTile) {
+            with_tile<kPairTile>(s1 - q0, [&](auto tile) {
+              constexpr int k = decltype(tile)::value;
+              __m256 fx[k], fy[k];
+              for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
+              float_runs(start, nx, cx, cy, q0, s0, s1, runs,
+                         [&](Index j0, Index j1, bool own, bool scatter, bool, Index left,
+                             Index right, float dy) {
+                const __m256 shift = _mm256_set1_ps(dy);
+                for (Index j = j0; j < j1; j += 8) {
+                  const GroupF g(f, j, j1, left, right, shift);
+                  const __m256 pj = _mm256_maskz_loadu_ps(g.lanes, pp + j);
+                  const __m256 irj = _mm256_maskz_loadu_ps(g.lanes, ir + j);
+                  __m256 vxj = zero, vyj = zero;
+                  if constexpr (Viscosity) {
+                    vxj = _mm256_maskz_loadu_ps(g.lanes, vx + j);
+                    vyj = _mm256_maskz_loadu_ps(g.lanes, vy + j);
+                  }
+                  __m256 fjx = zero, fjy = zero;
+                  for (int q = 0; q < k; ++q) {
+                    const Index i = q0 + q;
+                    const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
+                    if (!live) continue;
+                    const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(ux[i]), g.x);
+                    const __m256 dy = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
+                    const __m256 r2 = _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy));
+                    const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, h2, _CMP_LT_OQ);
+                    if (!in) continue;
+                    // as SeedPair::add: d = hc - r at least 0, zero at r = 0
+                    const __m256 rl = _mm256_sqrt_ps(r2);
+                    const __m256 d = _mm256_max_ps(_mm256_sub_ps(hv, rl), zero);
+                    const __mmask8 nz = _mm256_mask_cmp_ps_mask(in, r2, zero, _CMP_GT_OQ);
+                    const __m256 grad = _mm256_maskz_div_ps(nz, _mm256_mul_ps(d, d), rl);
+                    const __m256 fp = _mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(pp[i]), pj), grad);
+                    __m256 tx = _mm256_maskz_mul_ps(in, fp, dx);
+                    __m256 ty = _mm256_maskz_mul_ps(in, fp, dy);
+                    if constexpr (Viscosity) {
+                      const __m256 lap = _mm256_maskz_mul_ps(in, lap_c, d);
+                      const __m256 dvx = _mm256_sub_ps(vxj, _mm256_set1_ps(vx[i]));
+                      const __m256 dvy = _mm256_sub_ps(vyj, _mm256_set1_ps(vy[i]));
+                      tx = _mm256_mask_fmadd_ps(lap, in, dvx, tx);
+                      ty = _mm256_mask_fmadd_ps(lap, in, dvy, ty);
+                    }
+                    fx[q] = _mm256_fmadd_ps(irj, tx, fx[q]);
+                    fy[q] = _mm256_fmadd_ps(irj, ty, fy[q]);
+                    const __m256 iri = _mm256_set1_ps(ir[i]);
+                    fjx = _mm256_fnmadd_ps(iri, tx, fjx);
+                    fjy = _mm256_fnmadd_ps(iri, ty, fjy);
+                  }
+                  if (scatter)
+                    add_shares(ad + 2 * static_cast<std::size_t>(j), g,
+                               _mm512_mul_pd(scale, _mm512_cvtps_pd(fjx)),
+                               _mm512_mul_pd(scale, _mm512_cvtps_pd(fjy)));
+                }
+              });
+              for (int q = 0; q < k; ++q) {
+                Vec2& ai = a[q0 + q];
+                ai.x() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fx[q]));
+                ai.y() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fy[q]));
+              }
+            });
+          }
+        }
+      }
+      finish(start[y0 * nx], start[y1 * nx]);
+    }
+  }
 
   template <bool Viscosity>
   void wcsph_forces(const CellGrid& grid, const Vec2* x, Real h,

@@ -79,6 +79,9 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
                              " cells is too large");
   nx_ = static_cast<Index>(cx);
   ny_ = static_cast<Index>(cy);
+  lo_ = lo;
+  width_ = cell_size;
+  inv_width_ = inv_cell;
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
 
   // cell_of_ first holds each particle's cell in input order, then (below,

@@ -160,6 +160,13 @@ class CellGrid {
   // Particles of cell c (after the permutation): [cell_start(c), cell_start(c + 1)).
   Index cell_start(std::size_t c) const { return cell_start_[c]; }
   const Index* cell_starts() const { return cell_start_.data(); }
+  // Cell (cx, cy) spans [origin + (cx, cy) w, origin + (cx + 1, cy + 1) w) along
+  // the non-periodic axes, w = cell_width() (a hair more than the size asked).
+  // The sort's cell of a position p is (p - origin) * inv_width(), truncated
+  // and clamped to the grid.
+  const Vec2& origin() const { return lo_; }
+  Real cell_width() const { return width_; }
+  Real inv_width() const { return inv_width_; }
 
  private:
   static constexpr Index kSlack = 8;  // filter_run may write 8 lanes past its hits
@@ -289,6 +296,8 @@ class CellGrid {
   }
 
   Index nx_ = 0, ny_ = 0;
+  Vec2 lo_ = Vec2::Zero();
+  Real width_ = 0, inv_width_ = 0;
   std::vector<Index> cell_start_;  // n_cells + 1 (last entry is the guard)
   std::vector<Index> cell_of_;     // cell of each particle, in sorted order (cells_in_order)
   std::vector<Index> cursor_;  // scatter position per cell (per thread and cell)

@@ -69,6 +69,11 @@ struct SimParams {
 
   int threads = 0;  // OpenMP threads; 0 = the OpenMP default
 
+  // The seed's pair forces (pressure, viscosity) summed in single precision
+  // where the cell clusters run (cell_pairs.hpp, SeedFloats); everything else
+  // stays in double. README, "Precision".
+  bool float_pairs = false;
+
   // Adaptive time step: each step takes the largest dt that satisfies
   //   dt <= cfl l / (c + |v|max)            (sound speed and flow speed)
   //   dt <= kForceFactor sqrt(l / |a|max)   (force)

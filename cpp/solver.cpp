@@ -92,6 +92,7 @@ void Solver::select_step() {
   static const EvalFn evals[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(evaluate_impl);
   step_fn_ = steps[features_];
   eval_fn_ = evals[features_];
+  float_pairs_ = P.float_pairs && P.method == Method::kSeed && by_cells(features_);
   if (P.method == Method::kWcsph) select_wcsph_step();
 }
 
@@ -441,8 +442,16 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
     sort_by_cell(false);  // the cell ranges alone
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_blocks());
-    cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
-                                           w(Real(0)), w, ps_.rho.data(), team());
+    if (float_pairs_) {
+      CellPairs::fill_floats(grid_, ps_.x.data(), ps_.v.data(), n, team(), floats_);
+      const Real w6 = std::pow(grid_.cell_width(), 6);
+      cell_pair_count_ = cell_pairs_.density_float(grid_, floats_, params_.h, params_.mass,
+                                                   w(Real(0)), kern_.poly6 * w6,
+                                                   ps_.rho.data(), team());
+    } else {
+      cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
+                                             w(Real(0)), w, ps_.rho.data(), team());
+    }
     mark(kNeighbours);
     return;
   }
@@ -457,6 +466,14 @@ template <bool Viscosity, class Finish>
 void Solver::seed_forces_by_cells(Finish finish) {
 #if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
+    if (float_pairs_) {
+      const Real cw = grid_.cell_width();
+      const Real s = -Real(0.5) * params_.mass * kern_.spiky_grad * cw * cw;
+      const Real l = params_.eta * params_.mass * kern_.visc_lap * cw / (params_.rho0 * s);
+      cell_pairs_.seed_forces_float<Viscosity>(grid_, floats_, kern_.h, s, l, ps_.a.data(),
+                                               team(), finish);
+      return;
+    }
     cell_pairs_.seed_forces<Viscosity>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
                                        inv_rho_.data(), kern_.h,
                                        Real(0.5) * params_.mass * kern_.spiky_grad,
@@ -502,6 +519,20 @@ void Solver::finish_density(Index i0, Index i1) {
       for (const Vec2& r : ghosts) g += kern_.w_poly6(r.squaredNorm());
       rho[i] += m_ghost * g;
     });
+  }
+  if constexpr (by_cells(F)) {
+    if (float_pairs_) {  // and the float pair forces' p / rho0, rho0 / rho (SeedFloats)
+      float* pf = floats_.p.data();
+      float* ir = floats_.ir.data();
+      const Real inv_rho0 = 1 / rho0;
+      for (Index i = i0; i < i1; ++i) {
+        p[i] = k * (rho[i] - rho0);
+        inv_rho[i] = 1 / rho[i];
+        pf[i] = static_cast<float>(p[i] * inv_rho0);
+        ir[i] = static_cast<float>(rho0 * inv_rho[i]);
+      }
+      return;
+    }
   }
   for (Index i = i0; i < i1; ++i) {
     p[i] = k * (rho[i] - rho0);

@@ -95,6 +95,9 @@ class Solver {
   std::int64_t step_count() const { return step_count_; }
   std::int64_t removed() const { return removed_; }
   int threads() const { return threads_; }
+  // Whether the pair forces run in float (asked for, and the step runs them
+  // by cell clusters), else double.
+  bool float_pairs() const { return float_pairs_; }
   void set_threads(int threads);
   // The threads of the step's loops: threads(), or one below kParallelMin
   // particles (parallel.hpp).
@@ -110,7 +113,7 @@ class Solver {
             {"scratch", (inv_rho_.capacity() + p_over_rho2_.capacity() + lap_c_.capacity()) *
                                 sizeof(Real) +
                             normal_.capacity() * sizeof(Vec2) + keep_.capacity() + bad_.capacity() +
-                            wall_clear2_.capacity() * sizeof(float) +
+                            wall_clear2_.capacity() * sizeof(float) + floats_.bytes() +
                             surface_.bytes()}};
   }
   // Total number of stored neighbour pairs (i, j), j != i, of the last evaluation.
@@ -200,6 +203,10 @@ class Solver {
   std::vector<Index> order_;
   Csr<Index> nbrs_;
   CellPairs cell_pairs_;
+  // The seed's pair forces in float (SimParams::float_pairs, where the cell
+  // clusters run): the per-particle floats they read.
+  bool float_pairs_ = false;
+  SeedFloats floats_;
   std::int64_t cell_pair_count_ = -1;  // pairs of the last evaluation by cells, else -1
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass

@@ -166,3 +166,27 @@ def test_bench_says_when_a_small_scene_steps_on_one_thread(capsys):
     assert main(["bench", "--particles", "1200", "--steps", "2", "--warmup", "1", "--threads",
                  "2", "--repeat", "1"]) == 0
     assert "in use" not in capsys.readouterr().out
+
+
+def test_bench_times_both_pair_precisions_in_one_table(capsys):
+    assert main(["bench", "--particles", "300", "--steps", "2", "--warmup", "1", "--threads",
+                 "1", "--repeat", "1", "--pair-precision", "double,float"]) == 0
+    out = capsys.readouterr().out
+    assert "--pair-precision double,float`" in out
+    rows = [line for line in out.splitlines() if line.startswith("| 1 |")]
+    assert len(rows) == 4  # both precisions, in the throughput and the phase tables
+    ran = "float" if _core_float_pairs() else "float (double ran)"
+    assert sum(f"| 1 | {ran} |" in r for r in rows) == 2
+    assert sum("| 1 | double |" in r for r in rows) == 2
+    assert main(["bench", "--pair-precision", "single"]) == 2
+    assert main(["bench", "--pair-precision", "float", "--method", "wcsph"]) == 2
+    assert "seed method only" in capsys.readouterr().err
+
+
+def _core_float_pairs() -> bool:
+    """Whether this build runs the float pair sums (the cell clusters: AVX-512F, VL)."""
+    from sphfluid.bench import bench_scene
+
+    d = bench_scene(300)
+    d["solver"]["pair_precision"] = "float"
+    return sphfluid.Simulation(d)._solver.float_pairs

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from sphfluid.cli import main
 from sphfluid.validation import runner
-from sphfluid.validation.cases import CASES, METHODS, Result, surge_front
+from sphfluid.validation.cases import CASES, VARIANTS, Result, surge_front
 
 
 @pytest.fixture(scope="module")
 def quick_results():
-    return runner.run_suite(list(CASES), "quick", list(METHODS), None, lambda line: None)
+    return runner.run_suite(list(CASES), "quick", list(VARIANTS), None, lambda line: None)
 
 
 def test_quick_suite_is_within_its_bounds(quick_results):

@@ -129,17 +129,22 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
 
 
-def bench_scene(n_target: int, method: str = "seed", surface_tension: float = 0.0) -> dict:
-    """dam_break_scene, with the given surface tension (N/m) when it is not 0."""
+def bench_scene(n_target: int, method: str = "seed", surface_tension: float = 0.0,
+                pair_precision: str = "double") -> dict:
+    """dam_break_scene, with the given surface tension (N/m) when it is not 0 and
+    the given precision of the seed's pair sums."""
     scene = dam_break_scene(n_target, method)
     if surface_tension:
         scene["fluid"]["surface_tension"] = surface_tension
+    if pair_precision != "double":
+        scene["solver"]["pair_precision"] = pair_precision
     return scene
 
 
 def run_case(n_target: int, threads: int, steps: int, warmup: int, method: str = "seed",
-             surface_tension: float = 0.0) -> dict:
-    sim = Simulation(bench_scene(n_target, method, surface_tension), threads=threads)
+             surface_tension: float = 0.0, pair_precision: str = "double") -> dict:
+    sim = Simulation(bench_scene(n_target, method, surface_tension, pair_precision),
+                     threads=threads)
     sim.step(warmup)
     sim._solver.reset_phase_seconds()
     n = sim.n_particles
@@ -149,6 +154,9 @@ def run_case(n_target: int, threads: int, steps: int, warmup: int, method: str =
     phases = sim._solver.phase_seconds()
     t_star, z, z_ref = front_error(sim)
     return {"threads": threads, "in_use": sim.threads_in_use, "particles": n, "steps": steps,
+            # the precision asked for, and the one that ran (float needs the cell clusters)
+            "pairs": pair_precision,
+            "pairs_ran": "float" if sim._solver.float_pairs else "double",
             "wall": wall,
             "steps_per_s": steps / wall, "pps": steps * n / wall,
             "ns_per_ps": 1e9 * wall / (steps * n),
@@ -177,28 +185,38 @@ def table(rows: list[dict], command: str) -> str:
         (f"Each figure is the median of {rows[0]['repeats']} interleaved run(s); the range is "
          "the slowest and fastest run."),
         "",
-        ("| threads | particles | steps | wall s | steps/s | range | particle-steps/s "
+        ("| threads | pairs | particles | steps | wall s | steps/s | range | particle-steps/s "
          "| ns/particle-step | speed-up | front Z (M&M) at T | max compression |"),
-        "|---:|---:|---:|---:|---:|---|---:|---:|---:|---|---:|",
+        "|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---|---:|",
     ]
     base = rows[0]["wall"]
     for r in rows:
         lines.append(
-            f"| {thread_label(r)} | {r['particles']:,} | {r['steps']:,} | {r['wall']:.3f} | "
+            f"| {thread_label(r)} | {pairs_label(r)} | {r['particles']:,} | {r['steps']:,} | "
+            f"{r['wall']:.3f} | "
             f"{r['steps_per_s']:,.0f} | {r['range'][0]:,.0f}–{r['range'][1]:,.0f} | "
             f"{r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | "
             f"{base / r['wall']:.2f} | {r['Z']:.2f} ({r['Z_ref']:.2f}) at {r['T']:.2f} | "
             f"{r['max_compression']:.3f} |")
     lines += ["", "Time per step by phase (microseconds):", "",
-              "| threads | " + " | ".join(rows[0]["phases_us"]) + " |",
-              "|---:|" + "---:|" * len(rows[0]["phases_us"])]
+              "| threads | pairs | " + " | ".join(rows[0]["phases_us"]) + " |",
+              "|---:|---|" + "---:|" * len(rows[0]["phases_us"])]
     for r in rows:
         phases = " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
-        lines.append(f"| {thread_label(r)} | {phases} |")
+        lines.append(f"| {thread_label(r)} | {pairs_label(r)} | {phases} |")
+    lines += ["", "Speed-up: against the first row. Pairs: the precision of the seed's pair "
+              "sums (`solver.pair_precision`; README, \"Precision\")."]
     if any(thread_label(r) != str(r["threads"]) for r in rows):
         lines += ["", "\"(1 in use)\": below 1,000 particles the step runs on one thread "
                   "whatever is asked (`Simulation.threads_in_use`)."]
     return "\n".join(lines) + "\n"
+
+
+def pairs_label(r: dict) -> str:
+    """The precision of the pair sums, and what ran where that differs."""
+    ran = r.get("pairs_ran", "double")
+    asked = r.get("pairs", "double")
+    return ran if ran == asked else f"{asked} ({ran} ran)"
 
 
 def thread_label(r: dict) -> str:
@@ -257,20 +275,31 @@ def main(args) -> int:
         print(f"error: --surface-tension must be a finite number >= 0, got {sigma}",
               file=sys.stderr)
         return 2
-    runs: dict[int, list[dict]] = {t: [] for t in threads}
+    precisions = str(args.pair_precision).split(",")
+    if not precisions or any(p not in ("double", "float") for p in precisions):
+        print(f"error: --pair-precision: expected double, float or double,float, got "
+              f"{args.pair_precision!r}", file=sys.stderr)
+        return 2
+    if "float" in precisions and args.method != "seed":
+        print("error: --pair-precision float applies to the seed method only", file=sys.stderr)
+        return 2
+    cases = [(p, t) for p in precisions for t in threads]
+    runs: dict[tuple[str, int], list[dict]] = {c: [] for c in cases}
     for _ in range(args.repeat):  # interleaved, so slow spells of a shared machine hit all
-        for t in threads:
-            r = run_case(args.particles, t, args.steps, args.warmup, args.method, sigma)
-            runs[t].append(r)
-            print(f"{t} thread(s): {r['particles']:,} particles, {r['steps_per_s']:,.0f} "
+        for p, t in cases:
+            r = run_case(args.particles, t, args.steps, args.warmup, args.method, sigma, p)
+            runs[(p, t)].append(r)
+            print(f"{t} thread(s), {p} pairs: {r['particles']:,} particles, "
+                  f"{r['steps_per_s']:,.0f} "
                   f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
                   f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
                   f"(Martin & Moyce {r['Z_ref']:.2f})", file=sys.stderr)
-    rows = [median_run(runs[t]) for t in threads]
+    rows = [median_run(runs[c]) for c in cases]
     command = "sphfluid bench " + " ".join(
         f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
                                   ("warmup", args.warmup), ("threads", args.threads),
                                   ("repeat", args.repeat), ("method", args.method))) + (
+        f" --pair-precision {args.pair_precision}" if precisions != ["double"] else "") + (
         f" --surface-tension {sigma:g}" if sigma else "")
     text = table(rows, command)
     print(text)

@@ -91,6 +91,9 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
     b.add_argument("--method", choices=("seed", "wcsph"), default="seed",
                    help="the method to time (the same fixed dt for both)")
+    b.add_argument("--pair-precision", default="double", metavar="PRECISION",
+                   help="the seed's pair sums in double (default) or float, or both as "
+                        "double,float (interleaved, one table)")
     b.add_argument("--surface-tension", type=float, default=0.0, metavar="SIGMA",
                    help="surface tension coefficient in N/m (default 0: the dam break as "
                         "bundled; with it, what a scene with tension costs)")
@@ -129,7 +132,7 @@ def _parser() -> argparse.ArgumentParser:
                         "each method (default: ./scenes; skipped when absent, and then "
                         "--write is refused)")
 
-    from .validation.cases import CASES, METHODS
+    from .validation.cases import CASES, VARIANTS
 
     v = sub.add_parser("validate", help="accuracy against known answers, with run times",
                        description="Run the validation cases (hydrostatic tank, dam break vs "
@@ -145,7 +148,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="the real measurement (finer resolutions, minutes)")
     v.add_argument("--case", action="append", choices=list(CASES),
                    help="run only this case (repeatable)")
-    v.add_argument("--method", choices=METHODS, help="run only this method")
+    v.add_argument("--method", choices=VARIANTS,
+                   help="run only this method (seed-float: the seed with its pair sums in "
+                        "float, solver.pair_precision)")
     v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     v.add_argument("--out", type=Path, default=Path("docs/validation"),
                    help="folder for the plots (default docs/validation)")

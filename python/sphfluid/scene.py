@@ -48,8 +48,9 @@ _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
                "speed_of_sound", "artificial_viscosity", "background_pressure")
 _RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
 _SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitution",
-                "surface_threshold")
+                "surface_threshold", "pair_precision")
 ON_INSTABILITY = ("stop", "retry")
+PAIR_PRECISIONS = ("double", "float")
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),
     "circle": ("shape", "center", "radius", "velocity"),
@@ -146,6 +147,7 @@ class Scene:
     artificial_viscosity: float = DEFAULT_ARTIFICIAL_VISCOSITY  # wcsph alpha
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
+    pair_precision: str = "double"  # "float": the seed's pair forces in single precision
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
 
@@ -207,6 +209,8 @@ class Scene:
             out["solver"]["cfl"] = self.cfl
         if self.on_instability != "stop":
             out["solver"]["on_instability"] = self.on_instability
+        if self.pair_precision != "double":
+            out["solver"]["pair_precision"] = self.pair_precision
         if self.duration is not None:
             out["duration"] = self.duration
         return out
@@ -407,6 +411,12 @@ class _Validator:
         if on_instability not in ON_INSTABILITY:
             self.fail("solver.on_instability", f'expected "stop" or "retry", got '
                       f"{json.dumps(on_instability)}")
+        pair_precision = solver.get("pair_precision", "double")
+        if pair_precision not in PAIR_PRECISIONS:
+            self.fail("solver.pair_precision", f'expected "double" or "float", got '
+                      f"{json.dumps(pair_precision)}")
+        elif pair_precision == "float" and method == "wcsph":
+            self.fail("solver.pair_precision", '"float" applies to the seed method only')
         threshold = None
         if "surface_threshold" in solver:
             threshold = self.number(solver["surface_threshold"], "solver.surface_threshold",
@@ -522,7 +532,7 @@ class _Validator:
                       method=method, duration=duration, wall_restitution=restitution,
                       surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
                       speed_of_sound=c0, artificial_viscosity=alpha, periodic=periodic,
-                      background_pressure=p_b,
+                      background_pressure=p_b, pair_precision=pair_precision,
                       source=self.source)
         for i, r in enumerate(scene.regions):
             pos, _ = _fill_regions((r,), dx)

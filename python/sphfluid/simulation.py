@@ -75,6 +75,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.surface_threshold = -1.0 if scene.surface_threshold is None else scene.surface_threshold
     p.threads = 0 if threads is None else int(threads)
     p.cfl = scene.cfl
+    p.float_pairs = scene.pair_precision == "float"
     # The guard bounds the surface energy by sigma x the regions' perimeters.
     p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0
@@ -349,6 +350,9 @@ class Simulation:
             "dt": self.dt,
             "dt_limit": self.dt_limit,
             "method": self.scene.method,
+            # the precision the seed's pair sums ran in (solver.pair_precision: "float"
+            # runs where the cell clusters do, else "double")
+            "pair_precision": "float" if self._solver.float_pairs else "double",
             "n_particles": self.n_particles,
             "removed_particles": self.removed_particles,
             "kinetic_energy": 0.5 * self.particle_mass * float(speed2.sum()),  # J per m depth

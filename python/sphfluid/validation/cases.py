@@ -20,6 +20,14 @@ from . import reference as ref
 
 G = 9.81
 METHODS = ("seed", "wcsph")
+# What the suite runs: the methods, and the seed with its pair sums in float
+# (solver.pair_precision), where they run (not with surface tension).
+VARIANTS = METHODS + ("seed-float",)
+
+
+def scene_method(variant: str) -> str:
+    """The scene's solver.method of a variant."""
+    return "seed" if variant == "seed-float" else variant
 
 
 @dataclass
@@ -105,9 +113,22 @@ class Case:
         """Fill result.error, result.metrics and result.curves from the samples."""
         raise NotImplementedError
 
+    def applies(self, method: str) -> bool:
+        """Whether the variant runs differently from its method here: the float
+        pair sums run where the cell clusters do (no surface tension, no
+        periodic axis, an AVX-512 build); elsewhere the seed runs in double."""
+        if method != "seed-float":
+            return True
+        d = self.scene(self.resolutions["quick"][0], "seed")
+        d["solver"]["pair_precision"] = "float"
+        return Simulation(load_scene(d), threads=1)._solver.float_pairs
+
     def run(self, n: int, method: str, *, threads: int | None = None,
             progress=None) -> Result:
-        scene = load_scene(self.scene(n, method))
+        d = self.scene(n, scene_method(method))
+        if method == "seed-float":
+            d["solver"]["pair_precision"] = "float"
+        scene = load_scene(d)
         sim = Simulation(scene, threads=threads)
         self.start(sim)
         result = Result(self.name, method, n, scene.spacing, particles=sim.n_particles)
