@@ -61,6 +61,12 @@ struct SeedFloats {
   }
 };
 
+// Whether a kernel of r^2 says it is cheap (a polynomial in r^2: kCheap).
+template <class W, class = void>
+struct IsCheap : std::false_type {};
+template <class W>
+struct IsCheap<W, std::void_t<decltype(W::kCheap)>> : std::bool_constant<W::kCheap> {};
+
 class CellPairs {
  private:
   // A cell's particles are taken up to kDensityTile (kPairTile) at a time, their
@@ -286,7 +292,11 @@ class CellPairs {
                     const __m512d dy = _mm512_sub_pd(_mm512_set1_pd(x[i].y()), g.y);
                     const __m512d r2 = _mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy));
                     const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
-                    if (!in) continue;
+                    // A weight of a few instructions goes without a branch on in
+                    // (whose mispredictions cost more); one with a square root not.
+                    if constexpr (!IsCheap<WeightOfR2>::value) {
+                      if (!in) continue;
+                    }
                     const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
                     acc[q] = _mm512_add_pd(acc[q], wv);
                     wj = _mm512_add_pd(wj, wv);
@@ -628,7 +638,7 @@ class CellPairs {
                     const __m256 ey = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
                     const __m256 r2 = _mm256_fmadd_ps(ex, ex, _mm256_mul_ps(ey, ey));
                     const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, hc2, _CMP_LT_OQ);
-                    const __m256 e = _mm256_sub_ps(hc2, r2);
+                    const __m256 e = _mm256_sub_ps(hc2, r2);  // no branch on in, as above
                     const __m256 wv = _mm256_maskz_mul_ps(in, _mm256_mul_ps(e, e), e);
                     acc[q] = _mm256_add_ps(acc[q], wv);
                     wj = _mm256_add_ps(wj, wv);

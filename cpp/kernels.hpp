@@ -35,6 +35,7 @@ struct Kernels {
   // w_poly6 as a function object, also on eight r^2 at once (the neighbour
   // filter's density; lanes with r >= h are the caller's to drop).
   struct Poly6OfR2 {
+    static constexpr bool kCheap = true;  // a polynomial in r^2 (cell_pairs.hpp)
     const Kernels* k;
     Real operator()(Real r2) const { return k->w_poly6(r2); }
 #if defined(__AVX512F__)
