@@ -526,10 +526,11 @@ void Solver::finish_density(Index i0, Index i1) {
       float* ir = floats_.ir.data();
       const Real inv_rho0 = 1 / rho0;
       for (Index i = i0; i < i1; ++i) {
-        p[i] = k * (rho[i] - rho0);
-        inv_rho[i] = 1 / rho[i];
-        pf[i] = static_cast<float>(p[i] * inv_rho0);
-        ir[i] = static_cast<float>(rho0 * inv_rho[i]);
+        const Real pi = k * (rho[i] - rho0), ri = 1 / rho[i];
+        p[i] = pi;
+        inv_rho[i] = ri;
+        pf[i] = static_cast<float>(pi * inv_rho0);
+        ir[i] = static_cast<float>(rho0 * ri);
       }
       return;
     }

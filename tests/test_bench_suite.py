@@ -15,7 +15,8 @@ def test_one_configuration_reports_speed_memory_and_the_front():
     assert abs(r["Z"] - r["Z_ref"]) < 0.3 and r["Z"] <= 4.05
 
 
-@pytest.mark.parametrize("method,n", [("wcsph", 1000), ("seed", 1000), ("seed", 10000)])
+@pytest.mark.parametrize("method,n", [("wcsph", 1000), ("seed", 1000), ("seed", 10000),
+                                      ("seed-float", 1000)])
 def test_bare_loop_has_no_walls_and_no_viscosity_and_completes(method, n):
     """Timed within the steps the seed's free block holds (it blew up in the
     suite's tables when the bare loop ran 2,200 steps)."""

@@ -44,6 +44,19 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     return scene
 
 
+# What the suite times: the methods, and the seed with its pair sums in float
+# (solver.pair_precision).
+VARIANTS = ("seed", "wcsph", "seed-float")
+
+
+def variant_scene(n_target: int, variant: str) -> dict:
+    """dam_break_scene for a method or for "seed-float"."""
+    scene = dam_break_scene(n_target, "seed" if variant == "seed-float" else variant)
+    if variant == "seed-float":
+        scene["solver"]["pair_precision"] = "float"
+    return scene
+
+
 def front_error(sim: Simulation, a: float = 1.0) -> tuple[float, float, float]:
     """(T, simulated Z, Martin & Moyce's Table 2 Z at that T, with Z(0) = 1): the
     surge front of the validation suite (spray skipped) at the time reached."""

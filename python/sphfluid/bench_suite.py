@@ -22,9 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import dam_break_scene, front_error, machine, thread_label
+from .bench import VARIANTS, front_error, machine, thread_label, variant_scene
 
-METHODS = ("seed", "wcsph")
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
                 "ghosts": "wall ghosts", "density": "wall density + EOS",
@@ -42,7 +41,7 @@ def bare_scene(n_target: int, method: str) -> dict:
     """The dam-break column with no walls, no viscosity, no tension and no
     gravity, in a domain with room around it: the cost of the bare SPH loop
     (timed over its first BARE_STEPS steps)."""
-    scene = dam_break_scene(n_target, method)
+    scene = variant_scene(n_target, method)
     scene["name"] = f"Bare loop, {n_target:,} particles"
     scene["walls"] = []
     scene["fluid"]["viscosity"] = 0.0
@@ -62,7 +61,7 @@ def measure_one(kind: str, method: str, n_target: int, threads: int) -> dict:
     from .simulation import Simulation
 
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB, after imports
-    scene = bare_scene(n_target, method) if kind == "bare" else dam_break_scene(n_target, method)
+    scene = bare_scene(n_target, method) if kind == "bare" else variant_scene(n_target, method)
     sim = Simulation(scene, threads=threads)
     warmup, steps = steps_for(sim.n_particles)
     if kind == "bare":
@@ -109,7 +108,7 @@ def time_to_solution(method: str, n_target: int, threads: int, end: float = 1.0)
     from .validation.cases import surge_front
     from .validation.reference import best_shift_front_error, mean_front_error
 
-    scene = dam_break_scene(n_target, method)
+    scene = variant_scene(n_target, method)
     scene["solver"]["time_step"] = "auto"
     sim = Simulation(scene, threads=threads)
     times, fronts, wall = [0.0], [1.0], 0.0
@@ -167,7 +166,7 @@ def scaling_plot(rows: list[dict], path: Path) -> bool:
     except ImportError:
         return False
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for method, colour in zip(METHODS, ("C0", "C1")):
+    for method, colour in zip(VARIANTS, ("C0", "C1", "C2")):
         for kind, style in (("dam", "o-"), ("bare", "s--")):
             for threads, alpha in ((1, 0.45), (2, 1.0)):
                 sel = sorted((r for r in rows if r["method"] == method and r["kind"] == kind
@@ -234,7 +233,7 @@ def main(args) -> int:
     from . import _core
 
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(SIZES)
-    methods = [args.method] if args.method_given else list(METHODS)
+    methods = [args.method] if args.method_given else list(VARIANTS)
 
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -251,7 +250,7 @@ def main(args) -> int:
                     r.setdefault("threads", threads)
                     r["target"] = n
                     rows.append(r)
-                    log(f"{method:5s} {kind:4s} ~{n:>9,} {threads} thr: " + (
+                    log(f"{method:10s} {kind:4s} ~{n:>9,} {threads} thr: " + (
                         f"{r['steps_per_s']:9.1f} steps/s {r['ns_per_ps']:7.1f} ns/particle-step "
                         f"{r['bytes_per_particle']:5.0f} B/particle" if "wall" in r
                         else f"failed: {r['error']}"))
@@ -284,7 +283,9 @@ def main(args) -> int:
         ("Fixed dt (the seed: 2e-4 s x dx/0.02 m; wcsph: 0.3 (h/2)/c0), warm-up then about "
         "2e7 particle-steps timed (20 to 2,000 steps; the bare loop within its first "
         f"{BARE_STEPS} steps, as the seed's free block without viscosity blows up after "
-        "about 330), each configuration in a fresh process. \"2 (1 in use)\": below 1,000 "
+        "about 330), each configuration in a fresh process. seed-float: the seed with its "
+        "pair sums in float (solver.pair_precision; README, \"Precision\"). \"2 (1 in use)\": "
+        "below 1,000 "
         "particles the step runs on one thread whatever is asked. Bytes per particle: the "
         "solver's arrays (capacity included), and in brackets the process's peak resident "
         "memory above its state after the imports "
