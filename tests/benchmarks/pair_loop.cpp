@@ -12,10 +12,11 @@
 // particle or per tile, or behind a float prefilter; and probes that leave out
 // the square root and division, the viscosity, or all but the traversal, to
 // see where its time goes), the same clusters in float on 16 lanes (converted
-// from the doubles per group, or from float copies), and AVX-512 over the full
-// stencil's runs for each particle. First, the fluid
-// density (poly6 of r^2) by cell clusters against a sum over a full neighbour
-// list.
+// from the doubles per group, or from float copies) and on 8 lanes of a 256-bit
+// register (what solver.pair_precision "float" runs: positions relative to the
+// cell's corner, moved by whole cells), and AVX-512 over the full stencil's runs
+// for each particle. First, the fluid density (poly6 of r^2) by cell clusters
+// against a sum over a full neighbour list, in double and in float.
 // BENCHMARKS.md, "What was tried" and "Roofline", quotes its output.
 //
 //   g++ -O3 -march=native -fno-math-errno tests/benchmarks/pair_loop.cpp -o /tmp/pair_loop
@@ -857,6 +858,184 @@ void cluster_density(const Cloud& c, const Coefficients&, double* rho) {
     for (int q = 0; q < m; ++q) rho[s0 + q] += _mm512_reduce_add_pd(_mm512_load_pd(acc[q]));
   }
 }
+// The clusters in float, eight lanes in a 256-bit register (what the solver's
+// float pair sums run): float copies made beforehand (not timed), positions
+// relative to the corner of their cell; a candidate in the cell to the left or
+// right of i's, or in the row above, is moved by a cell width.
+struct Floats {
+  std::vector<float> ux, uy, vx, vy, p, ir;
+};
+Floats g_f8;
+void make_f8(const Cloud& c) {
+  g_f8 = {};
+  for (int i = 0; i < c.n; ++i) {
+    const int cy = c.cell[i] / c.nc, cx = c.cell[i] % c.nc;
+    g_f8.ux.push_back(float(c.x[2 * i] - cx * c.h));
+    g_f8.uy.push_back(float(c.x[2 * i + 1] - cy * c.h));
+    g_f8.vx.push_back(float(c.v[2 * i]));
+    g_f8.vy.push_back(float(c.v[2 * i + 1]));
+    g_f8.p.push_back(float(c.p[i]));
+    g_f8.ir.push_back(float(c.inv_rho[i]));
+  }
+}
+// A group of eight from j of the run to j1: the lanes before xl lie a cell to
+// the left, from xr on a cell to the right; ys moves the row.
+struct GroupF8 {
+  __mmask8 lanes;
+  __m256 x, y;
+  GroupF8(int j, int j1, int xl, int xr, float ys, float w) {
+    const int left = j1 - j;
+    lanes = left >= 8 ? 0xFF : static_cast<__mmask8>((1u << left) - 1);
+    const __m256i idx = _mm256_add_epi32(_mm256_set1_epi32(j), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    x = _mm256_maskz_loadu_ps(lanes, &g_f8.ux[j]);
+    x = _mm256_mask_add_ps(x, _mm256_cmpge_epi32_mask(idx, _mm256_set1_epi32(xr)), x, _mm256_set1_ps(w));
+    x = _mm256_mask_sub_ps(x, _mm256_cmplt_epi32_mask(idx, _mm256_set1_epi32(xl)), x, _mm256_set1_ps(w));
+    y = _mm256_add_ps(_mm256_maskz_loadu_ps(lanes, &g_f8.uy[j]), _mm256_set1_ps(ys));
+  }
+};
+template <int K>
+static inline void tile_run_f8(const Cloud& c, const Coefficients& k, double* f, int t0, int j0, int j1,
+                               bool own, int xl, int xr, float ys, __m256* fix, __m256* fiy) {
+  const Floats& F = g_f8;
+  const __m512i ilo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+  const __m512i ihi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m256 H = _mm256_set1_ps(float(c.h)), H2 = _mm256_set1_ps(float(c.h * c.h));
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 G = _mm256_set1_ps(float(k.grad * 0.5)), L = _mm256_set1_ps(float(k.eta * k.lap));
+  for (int j = j0; j < j1; j += 8) {
+    const GroupF8 g(j, j1, xl, xr, ys, float(c.h));
+    const __m256 pj = _mm256_maskz_loadu_ps(g.lanes, &F.p[j]);
+    const __m256 irj = _mm256_maskz_loadu_ps(g.lanes, &F.ir[j]);
+    const __m256 vxj = _mm256_maskz_loadu_ps(g.lanes, &F.vx[j]);
+    const __m256 vyj = _mm256_maskz_loadu_ps(g.lanes, &F.vy[j]);
+    __m256 fjx = zero, fjy = zero;
+    for (int q = 0; q < K; ++q) {
+      const int i = t0 + q;
+      __mmask8 live = g.lanes;
+      if (own) {
+        const int d = i + 1 - j;
+        live &= d <= 0 ? 0xFF : d >= 8 ? 0 : static_cast<__mmask8>(0xFFu << d);
+      }
+      if (!live) continue;
+      const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(F.ux[i]), g.x);
+      const __m256 dy = _mm256_sub_ps(_mm256_set1_ps(F.uy[i]), g.y);
+      const __m256 r2 = _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy));
+      const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, H2, _CMP_LT_OQ);
+      if (!in) continue;
+      const __m256 r = _mm256_sqrt_ps(r2);
+      const __m256 d = _mm256_max_ps(_mm256_sub_ps(H, r), zero);
+      const __mmask8 nz = _mm256_mask_cmp_ps_mask(in, r2, zero, _CMP_GT_OQ);
+      const __m256 gr = _mm256_maskz_div_ps(nz, _mm256_mul_ps(d, d), r);
+      const __m256 fp = _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(F.p[i]), pj), G), gr);
+      __m256 tx = _mm256_maskz_fnmadd_ps(in, fp, dx, zero);
+      __m256 ty = _mm256_maskz_fnmadd_ps(in, fp, dy, zero);
+      const __m256 l = _mm256_maskz_mul_ps(in, L, d);
+      tx = _mm256_mask_fmadd_ps(l, in, _mm256_sub_ps(vxj, _mm256_set1_ps(F.vx[i])), tx);
+      ty = _mm256_mask_fmadd_ps(l, in, _mm256_sub_ps(vyj, _mm256_set1_ps(F.vy[i])), ty);
+      fix[q] = _mm256_fmadd_ps(irj, tx, fix[q]);
+      fiy[q] = _mm256_fmadd_ps(irj, ty, fiy[q]);
+      const __m256 iri = _mm256_set1_ps(F.ir[i]);
+      fjx = _mm256_fnmadd_ps(iri, tx, fjx);
+      fjy = _mm256_fnmadd_ps(iri, ty, fjy);
+    }
+    const int left = j1 - j;
+    const unsigned doubles = 2u * static_cast<unsigned>(std::min(left, 8));
+    const __mmask8 lo_mask = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+    const __mmask8 hi_mask = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+    const __m512d dfx = _mm512_cvtps_pd(fjx), dfy = _mm512_cvtps_pd(fjy);
+    const __m512d flo = _mm512_permutex2var_pd(dfx, ilo, dfy), fhi = _mm512_permutex2var_pd(dfx, ihi, dfy);
+    _mm512_mask_storeu_pd(&f[2 * j], lo_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(lo_mask, &f[2 * j]), flo));
+    _mm512_mask_storeu_pd(&f[2 * j + 8], hi_mask, _mm512_add_pd(_mm512_maskz_loadu_pd(hi_mask, &f[2 * j + 8]), fhi));
+  }
+}
+template <int K>
+static inline void tile_f8(const Cloud& c, const Coefficients& k, double* f, int t0, int r1, int a0, int a1,
+                           int cx, int cy) {
+  const int nc = c.nc;
+  __m256 fix[K], fiy[K];
+  for (int q = 0; q < K; ++q) fix[q] = fiy[q] = _mm256_setzero_ps();
+  tile_run_f8<K>(c, k, f, t0, t0 + 1, r1, true, -1, c.start[cy * nc + cx + 1], 0.f, fix, fiy);
+  if (a1 > a0)
+    tile_run_f8<K>(c, k, f, t0, a0, a1, false, c.start[(cy + 1) * nc + cx], c.start[(cy + 1) * nc + cx + 1],
+                   float(c.h), fix, fiy);
+  for (int q = 0; q < K; ++q) {
+    f[2 * (t0 + q)] += _mm512_reduce_add_pd(_mm512_cvtps_pd(fix[q]));
+    f[2 * (t0 + q) + 1] += _mm512_reduce_add_pd(_mm512_cvtps_pd(fiy[q]));
+  }
+}
+void cluster_f8(const Cloud& c, const Coefficients& k, double* f) {
+  std::fill(f, f + 2 * c.n, 0.0);
+  const int nc = c.nc;
+  for (int cell = 0; cell < nc * nc; ++cell) {
+    const int s0 = c.start[cell], s1 = c.start[cell + 1];
+    if (s0 == s1) continue;
+    const int cy = cell / nc, cx = cell % nc;
+    const int r1 = c.start[cy * nc + std::min(cx + 1, nc - 1) + 1];
+    int a0 = 0, a1 = 0;
+    if (cy + 1 < nc) {
+      a0 = c.start[(cy + 1) * nc + std::max(cx - 1, 0)];
+      a1 = c.start[(cy + 1) * nc + std::min(cx + 1, nc - 1) + 1];
+    }
+    for (int t0 = s0; t0 < s1;) {
+      const int m = std::min(s1 - t0, 4);
+      switch (m) {
+        case 4: tile_f8<4>(c, k, f, t0, r1, a0, a1, cx, cy); break;
+        case 3: tile_f8<3>(c, k, f, t0, r1, a0, a1, cx, cy); break;
+        case 2: tile_f8<2>(c, k, f, t0, r1, a0, a1, cx, cy); break;
+        default: tile_f8<1>(c, k, f, t0, r1, a0, a1, cx, cy); break;
+      }
+      t0 += m;
+    }
+  }
+}
+// The density the same way in float (eight lanes, no branch on the lanes
+// within h: a few instructions cost less than the mispredictions).
+void density_f8(const Cloud& c, const Coefficients&, double* rho) {
+  std::fill(rho, rho + c.n, 0.0);
+  const int nc = c.nc;
+  const __m256 H2 = _mm256_set1_ps(float(c.h * c.h)), zero = _mm256_setzero_ps();
+  for (int cell = 0; cell < nc * nc; ++cell) {
+    const int s0 = c.start[cell], s1 = c.start[cell + 1];
+    if (s0 == s1) continue;
+    const int m = s1 - s0;
+    const int cy = cell / nc, cx = cell % nc;
+    const int r1 = c.start[cy * nc + std::min(cx + 1, nc - 1) + 1];
+    int a0 = 0, a1 = 0;
+    if (cy + 1 < nc) {
+      a0 = c.start[(cy + 1) * nc + std::max(cx - 1, 0)];
+      a1 = c.start[(cy + 1) * nc + std::min(cx + 1, nc - 1) + 1];
+    }
+    __m256 acc[16];
+    for (int q = 0; q < m; ++q) acc[q] = zero;
+    auto run = [&](int j0, int j1, bool own, int xl, int xr, float ys) {
+      for (int j = j0; j < j1; j += 8) {
+        const GroupF8 g(j, j1, xl, xr, ys, float(c.h));
+        __m256 wj = zero;
+        for (int q = 0; q < m; ++q) {
+          const int i = s0 + q;
+          __mmask8 live = g.lanes;
+          if (own) {
+            const int d = i + 1 - j;
+            live &= d <= 0 ? 0xFF : d >= 8 ? 0 : static_cast<__mmask8>(0xFFu << d);
+          }
+          const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(g_f8.ux[i]), g.x);
+          const __m256 dy = _mm256_sub_ps(_mm256_set1_ps(g_f8.uy[i]), g.y);
+          const __m256 r2 = _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy));
+          const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, H2, _CMP_LT_OQ);
+          const __m256 e = _mm256_sub_ps(H2, r2);
+          const __m256 w = _mm256_maskz_mul_ps(in, _mm256_mul_ps(e, e), e);
+          acc[q] = _mm256_add_ps(acc[q], w);
+          wj = _mm256_add_ps(wj, w);
+        }
+        _mm512_mask_storeu_pd(&rho[j], g.lanes,
+                              _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, &rho[j]), _mm512_cvtps_pd(wj)));
+      }
+    };
+    run(s0, r1, true, -1, c.start[cy * nc + cx + 1], 0.f);
+    if (a1 > a0) run(a0, a1, false, c.start[(cy + 1) * nc + cx], c.start[(cy + 1) * nc + cx + 1], float(c.h));
+    for (int q = 0; q < m; ++q) rho[s0 + q] += _mm512_reduce_add_pd(_mm512_cvtps_pd(acc[q]));
+  }
+}
 void list_density(const Cloud& c, const Coefficients&, double* rho) {
   const double h2 = c.h * c.h;
   for (int i = 0; i < c.n; ++i) {
@@ -976,6 +1155,16 @@ int main() {
       bl = std::min(bl, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e9 / (50.0 * c.n));
     }
     std::printf("density: cluster %.1f ns per particle (max rel diff %.1e), over a full list %.1f ns\n", best, diff, bl);
+    make_f8(c);
+    double bf = 1e9;
+    for (int rep = 0; rep < 5; ++rep) {
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int s = 0; s < 50; ++s) density_f8(c, k, r1.data());
+      bf = std::min(bf, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e9 / (50.0 * c.n));
+    }
+    diff = 0;
+    for (int i = 0; i < c.n; ++i) diff = std::max(diff, std::abs(r1[i] - r0[i]) / r0[i]);
+    std::printf("density: cluster in float, 8 lanes, %.1f ns per particle (max rel diff %.1e)\n", bf, diff);
   }
   for (const Variant& var : {Variant{"scalar, neighbour list", scalar_list},
                              Variant{"AVX-512, list with gathers", gather_list},
@@ -993,6 +1182,7 @@ int main() {
                              Variant{"  probe: traversal only", cluster_pairs<true, Probe::Traversal>},
                              Variant{"clusters, float x16, converted", cluster_pairs_f<false>},
                              Variant{"clusters, float x16, copies", cluster_pairs_f<true>},
+                             Variant{"clusters, float x8 (256-bit)", cluster_f8},
                              Variant{"AVX-512, cell runs (no list)", cell_runs}}) {
     double best = 1e9;
     for (int rep = 0; rep < 5; ++rep) {
