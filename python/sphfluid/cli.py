@@ -228,8 +228,14 @@ def _run(args) -> int:
     step_text = ("adaptive dt (cfl " + f"{scene.cfl:g})" if sim.adaptive
                  else f"dt {scene.time_step:g} s, "
                       f"{int(math.ceil(duration / scene.time_step - 1e-9)):,} steps")
+    precision = ""
+    if scene.pair_precision != "double":  # say which ran: float needs the cell clusters
+        precision = (" (pair sums in float)" if sim.stats()["pair_precision"] == "float" else
+                     " (pair sums in double: float runs without surface tension and periodic "
+                     "axes, in AVX-512 builds)")
     print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
-          f"{len(scene.walls)} walls, method {scene.method}, {step_text} to t = {duration:g} s, "
+          f"{len(scene.walls)} walls, method {scene.method}{precision}, {step_text} to "
+          f"t = {duration:g} s, "
           f"{sim.threads} thread(s)"
           + (f" ({sim.threads_in_use} in use below 1,000 particles)"
              if sim.threads_in_use != sim.threads else ""), file=sys.stderr)
