@@ -46,13 +46,13 @@ count = ctypes.CDLL(None).sphfluid_test_allocations
 count.restype = ctypes.c_long
 import json, pathlib
 import sphfluid
-from sphfluid.bench import dam_break_scene
+from sphfluid.bench import variant_scene
 from sphfluid.bench_suite import bare_scene
 drop = json.loads(pathlib.Path(sys.argv[1]).read_text())
 drop["solver"].update(time_step="auto")
-for method in ("seed", "wcsph"):
-    drop["solver"]["method"] = method
-    for name, scene in (("dam", dam_break_scene(3000, method)), ("bare", bare_scene(1000, method)),
+for method in ("seed", "wcsph", "seed-float"):
+    drop["solver"]["method"] = "seed" if method == "seed-float" else method
+    for name, scene in (("dam", variant_scene(3000, method)), ("bare", bare_scene(1000, method)),
                         ("drop", drop)):
         for threads in (1, 2):
             sim = sphfluid.Simulation(scene, threads=threads)
@@ -77,7 +77,7 @@ def test_steps_do_not_allocate(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
-    assert len(rows) == 12, out.stdout
+    assert len(rows) == 18, out.stdout
     for method, name, threads, one, many in rows:
         # The call from Python costs the same few allocations for 1 step or
         # 200; the neighbour chunks may still grow by an eighth once or twice.
