@@ -489,7 +489,9 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
             status = (f"t = {sim.time:7.3f} s  {clock.get_fps():5.1f} fps  {step_rate:7,.0f} "
                       f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
                       f"  max compression {100 * st['max_compression']:.1f} %  dt "
-                      f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}  {n_steps} steps/frame"
+                      f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}"
+                      + (" (float pairs)" if st["pair_precision"] == "float" else "")
+                      + f"  {n_steps} steps/frame"
                       + ("  PAUSED" if paused else ""))
             screen.blit(font.render(status, True, TEXT), (8, 5))
             wx, wy = renderer.camera.to_world(*cursor)
