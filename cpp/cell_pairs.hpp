@@ -29,6 +29,7 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <type_traits>
 #include <vector>
@@ -38,17 +39,19 @@
 
 namespace sphfluid {
 
-// The seed's pair sums in single precision (SimParams::float_pairs): the
-// density and the pair forces by the same cell clusters in groups of eight
-// floats (256-bit lanes, which CPUs that split 512-bit arithmetic in two run at
-// twice the rate of eight doubles). Each position is taken relative to the
-// corner of its cell, in units of the cell width w (0 <= u < 1), and a
-// candidate's is moved by the whole cells between the two, so a separation
-// keeps float's precision, about 6e-8 w, at any resolution and anywhere in the
-// domain. p / rho0, rho0 / rho and v are rounded once per evaluation. The
-// quantities are scaled to be of order one whatever the units (no overflow nor
-// underflow from powers of h), and the sums go to double: each particle's
-// eight lanes and each group's shares are widened before they are added.
+// The seed's pair forces in single precision (SimParams::float_pairs): the
+// pressure and viscosity pair terms by the same cell clusters in groups of
+// eight floats (256-bit lanes, which CPUs that split 512-bit arithmetic in two
+// run at twice the rate of eight doubles); the density stays in double (a
+// stiff EOS would amplify a float density's round-off into the pressure).
+// Each position is taken relative to the corner of its cell, in units of the
+// cell width w (0 <= u < 1), and a candidate's is moved by the whole cells
+// between the two, so a separation keeps float's precision, about 6e-8 w, at
+// any resolution and anywhere in the domain. p / rho0, rho0 / rho and v are
+// rounded once per evaluation. The quantities are scaled to be of order one
+// whatever the units (no overflow nor underflow from powers of h), and the sums
+// go to double: each particle's eight lanes and each group's shares are
+// widened before they are added.
 struct SeedFloats {
   std::vector<float> ux, uy, vx, vy;  // position in its cell / w; velocity
   std::vector<float> p, ir;           // p / rho0, rho0 / rho
@@ -112,8 +115,6 @@ class CellPairs {
     const Index d = i + 1 - j;  // the first lane after i
     return d <= 0 ? __mmask8(all) : d >= W ? __mmask8(0) : static_cast<__mmask8>((all << d) & all);
   }
-  // Eight consecutive particles from j (fewer at the end of the run): their
-  // x and y de-interleaved, and the masks of the lanes and of the doubles.
   // The lanes of a group of eight from j in a run ending at j1, and the masks of
   // the lo and hi halves of its 16 interleaved doubles.
   struct Lanes8 {
@@ -126,6 +127,8 @@ class CellPairs {
       hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
     }
   };
+  // Eight consecutive particles from j (fewer at the end of the run): their
+  // x and y de-interleaved, and the masks of the lanes and of the doubles.
   struct Group : Lanes8 {
     __m512d x, y;
     Group(const Vec2* pos, Index j, Index j1) : Lanes8(j, j1) {
@@ -561,6 +564,11 @@ class CellPairs {
     }
   }
 
+  static float float_not_above(Real v) {
+    const float f = static_cast<float>(v);
+    return static_cast<Real>(f) > v ? std::nextafter(f, 0.0f) : f;
+  }
+
   // A float group of eight from j of the run [j.., j1) of the row dy cells
   // above i's (dy in -1, 0, 1): x and y relative to the corner of i's cell, in
   // cells. Its particles before `left` lie a cell to the left of i's, from
@@ -578,90 +586,20 @@ class CellPairs {
       y = _mm256_add_ps(_mm256_maskz_loadu_ps(lanes, f.uy.data() + j), dy);
     }
   };
-  // body(j0, j1, own, scatter, below, left, right, dy) on the runs of a tile
-  // of cell (cx, cy) as in the double loops, with GroupF's cell bounds.
+  // body(j0, j1, own, scatter, left, right, rows_up) on the runs of a tile of
+  // cell (cx, cy) as in the double loops, with GroupF's cell bounds.
   template <class Body>
   static void float_runs(const Index* start, Index nx, Index cx, Index cy, Index q0, Index s0,
                          Index s1, const Runs& runs, Body&& body) {
-    body(q0 + 1, runs.own_end, true, true, false, s0, s1, 0.f);
+    body(q0 + 1, runs.own_end, true, true, s0, s1, 0.f);
     if (runs.above1 > runs.above0) {
       const Index r = (cy + 1) * nx + cx;
-      body(runs.above0, runs.above1, false, runs.above_in_block, false, start[r], start[r + 1],
-           1.f);
+      body(runs.above0, runs.above1, false, runs.above_in_block, start[r], start[r + 1], 1.f);
     }
     if (runs.below1 > runs.below0) {
       const Index r = (cy - 1) * nx + cx;
-      body(runs.below0, runs.below1, false, false, true, start[r], start[r + 1], -1.f);
+      body(runs.below0, runs.below1, false, false, start[r], start[r + 1], -1.f);
     }
-  }
-
-  // The seed's density in float: rho_i = m (self + c sum_j (hc^2 - |u_ij|^2)^3)
-  // over |u_ij| < hc, with u in cells, hc = h / w and c = poly6 w^6. rho holds
-  // the double sums of (hc^2 - |u|^2)^3 until a block's particles are done.
-  // Returns the number of distinct pairs.
-  std::int64_t density_float(const CellGrid& grid, const SeedFloats& f, Real h, Real m,
-                             Real self, Real c, Real* rho, int threads) const {
-    const Index nx = grid.nx(), ny = grid.ny();
-    const Index* start = grid.cell_starts();
-    const Real hc = h * grid.inv_width();
-    const __m256 hc2 = _mm256_set1_ps(static_cast<float>(hc * hc));
-    const float* ux = f.ux.data();
-    const float* uy = f.uy.data();
-    std::int64_t pairs = 0;
-    const Index nb = blocks();
-#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : pairs)
-    for (Index b = 0; b < nb; ++b) {
-      const Index y0 = rows_[b], y1 = rows_[b + 1];
-      std::fill(rho + start[y0 * nx], rho + start[y1 * nx], Real(0));
-      for (Index cy = y0; cy < y1; ++cy) {
-        for (Index cx = 0; cx < nx; ++cx) {
-          const Index cell = cy * nx + cx, s0 = start[cell], s1 = start[cell + 1];
-          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kDensityTile) {
-            with_tile<kDensityTile>(s1 - q0, [&](auto tile) {
-              constexpr int k = decltype(tile)::value;
-              __m256 acc[k];
-              for (int q = 0; q < k; ++q) acc[q] = _mm256_setzero_ps();
-              float_runs(start, nx, cx, cy, q0, s0, s1, runs,
-                         [&](Index j0, Index j1, bool own, bool scatter, bool below, Index left,
-                             Index right, float dy) {
-                unsigned met = 0;
-                const __m256 shift = _mm256_set1_ps(dy);
-                for (Index j = j0; j < j1; j += 8) {
-                  const GroupF g(f, j, j1, left, right, shift);
-                  __m256 wj = _mm256_setzero_ps();
-                  for (int q = 0; q < k; ++q) {
-                    const Index i = q0 + q;
-                    const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
-                    if (!live) continue;
-                    const __m256 ex = _mm256_sub_ps(_mm256_set1_ps(ux[i]), g.x);
-                    const __m256 ey = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
-                    const __m256 r2 = _mm256_fmadd_ps(ex, ex, _mm256_mul_ps(ey, ey));
-                    const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, hc2, _CMP_LT_OQ);
-                    const __m256 e = _mm256_sub_ps(hc2, r2);  // no branch on in, as above
-                    const __m256 wv = _mm256_maskz_mul_ps(in, _mm256_mul_ps(e, e), e);
-                    acc[q] = _mm256_add_ps(acc[q], wv);
-                    wj = _mm256_add_ps(wj, wv);
-                    if (!below) met += static_cast<unsigned>(__builtin_popcount(in));
-                  }
-                  if (scatter)
-                    _mm512_mask_storeu_pd(
-                        rho + j, g.lanes,
-                        _mm512_add_pd(_mm512_maskz_loadu_pd(g.lanes, rho + j),
-                                      _mm512_cvtps_pd(wj)));
-                }
-                pairs += met;
-              });
-              for (int q = 0; q < k; ++q) {
-                const Index i = q0 + q;
-                rho[i] = m * (self + c * (rho[i] + _mm512_reduce_add_pd(_mm512_cvtps_pd(acc[q]))));
-              }
-            });
-          }
-        }
-      }
-    }
-    return pairs;
   }
 
   // The seed's pair forces in float: with u in cells, hc = h / w, p^ = p / rho0
@@ -674,9 +612,12 @@ class CellPairs {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     const __m256 zero = _mm256_setzero_ps();
+    // h in cells (a hair below 1: the cells are a hair wider than h), and its
+    // square, each the largest float not above it, so that no pair at r >= h
+    // counts
     const Real hc = h * grid.inv_width();
-    const __m256 hv = _mm256_set1_ps(static_cast<float>(hc));
-    const __m256 h2 = _mm256_set1_ps(static_cast<float>(hc * hc));
+    const __m256 hv = _mm256_set1_ps(float_not_above(hc));
+    const __m256 h2 = _mm256_set1_ps(float_not_above(hc * hc));
     const __m256 lap_c = _mm256_set1_ps(static_cast<float>(l));
     const __m512d scale = _mm512_set1_pd(s);
     const float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
@@ -697,9 +638,9 @@ class CellPairs {
               __m256 fx[k], fy[k];
               for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
               float_runs(start, nx, cx, cy, q0, s0, s1, runs,
-                         [&](Index j0, Index j1, bool own, bool scatter, bool, Index left,
-                             Index right, float dy) {
-                const __m256 shift = _mm256_set1_ps(dy);
+                         [&](Index j0, Index j1, bool own, bool scatter, Index left,
+                             Index right, float rows_up) {
+                const __m256 shift = _mm256_set1_ps(rows_up);
                 for (Index j = j0; j < j1; j += 8) {
                   const GroupF g(f, j, j1, left, right, shift);
                   const __m256 pj = _mm256_maskz_loadu_ps(g.lanes, pp + j);

@@ -162,8 +162,9 @@ class CellGrid {
   const Index* cell_starts() const { return cell_start_.data(); }
   // Cell (cx, cy) spans [origin + (cx, cy) w, origin + (cx + 1, cy + 1) w) along
   // the non-periodic axes, w = cell_width() (a hair more than the size asked).
-  // The sort's cell of a position p is (p - origin) * inv_width(), truncated
-  // and clamped to the grid.
+  // Along a non-periodic axis the sort's cell of a position p is
+  // (p - origin) * inv_width(), truncated and clamped to the grid (a periodic
+  // axis spans its box instead).
   const Vec2& origin() const { return lo_; }
   Real cell_width() const { return width_; }
   Real inv_width() const { return inv_width_; }

@@ -442,16 +442,10 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
     sort_by_cell(false);  // the cell ranges alone
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_blocks());
-    if (float_pairs_) {
-      CellPairs::fill_floats(grid_, ps_.x.data(), ps_.v.data(), n, team(), floats_);
-      const Real w6 = std::pow(grid_.cell_width(), 6);
-      cell_pair_count_ = cell_pairs_.density_float(grid_, floats_, params_.h, params_.mass,
-                                                   w(Real(0)), kern_.poly6 * w6,
-                                                   ps_.rho.data(), team());
-    } else {
-      cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
-                                             w(Real(0)), w, ps_.rho.data(), team());
-    }
+    // the float forces' positions in their cells and velocities (SeedFloats)
+    if (float_pairs_) CellPairs::fill_floats(grid_, ps_.x.data(), ps_.v.data(), n, team(), floats_);
+    cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
+                                           w(Real(0)), w, ps_.rho.data(), team());
     mark(kNeighbours);
     return;
   }
