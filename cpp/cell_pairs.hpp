@@ -521,46 +521,41 @@ class CellPairs {
     }
   };
 
-  // SeedFloats' positions and velocities of the n sorted particles (the cell
-  // of each from the same arithmetic as the sort's), by the threads' shares.
-  static void fill_floats(const CellGrid& grid, const Vec2* x, const Vec2* v, Index n,
-                          int threads, SeedFloats& f) {
-    f.resize(n);
+  // SeedFloats' positions and velocities of the sorted particles [i0, i1) (the
+  // cell of each from the same arithmetic as the sort's); f sized beforehand.
+  static void fill_floats(const CellGrid& grid, const Vec2* x, const Vec2* v, Index i0,
+                          Index i1, SeedFloats& f) {
     const Vec2 lo = grid.origin();
     const Real inv = grid.inv_width();
     const Index nx = grid.nx(), ny = grid.ny();
     float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
-#pragma omp parallel num_threads(threads)
-    {
-      const Share mine = share_of(n, thread_rank(), thread_team_size());
-      Index i = mine.first;
-      const __m512d lox = _mm512_set1_pd(lo.x()), loy = _mm512_set1_pd(lo.y());
-      const __m512d iv = _mm512_set1_pd(inv);
-      const __m256i zero = _mm256_setzero_si256();
-      const __m256i last_x = _mm256_set1_epi32(nx - 1), last_y = _mm256_set1_epi32(ny - 1);
-      for (; i + 8 <= mine.last; i += 8) {
-        const double* p = reinterpret_cast<const double*>(x + i);
-        const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
-        const __m512d tx = _mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), iv);
-        const __m512d ty = _mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), iv);
-        const __m256i cx =
-            _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(tx), zero), last_x);
-        const __m256i cy =
-            _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(ty), zero), last_y);
-        _mm256_storeu_ps(ux + i, _mm512_cvtpd_ps(_mm512_sub_pd(tx, _mm512_cvtepi32_pd(cx))));
-        _mm256_storeu_ps(uy + i, _mm512_cvtpd_ps(_mm512_sub_pd(ty, _mm512_cvtepi32_pd(cy))));
-        const double* q = reinterpret_cast<const double*>(v + i);
-        const __m512d c = _mm512_loadu_pd(q), d = _mm512_loadu_pd(q + 8);
-        _mm256_storeu_ps(vx + i, _mm512_cvtpd_ps(x_of8(c, d)));
-        _mm256_storeu_ps(vy + i, _mm512_cvtpd_ps(y_of8(c, d)));
-      }
-      for (; i < mine.last; ++i) {
-        const Real tx = (x[i].x() - lo.x()) * inv, ty = (x[i].y() - lo.y()) * inv;
-        ux[i] = static_cast<float>(tx - std::clamp<Index>(static_cast<Index>(tx), 0, nx - 1));
-        uy[i] = static_cast<float>(ty - std::clamp<Index>(static_cast<Index>(ty), 0, ny - 1));
-        vx[i] = static_cast<float>(v[i].x());
-        vy[i] = static_cast<float>(v[i].y());
-      }
+    Index i = i0;
+    const __m512d lox = _mm512_set1_pd(lo.x()), loy = _mm512_set1_pd(lo.y());
+    const __m512d iv = _mm512_set1_pd(inv);
+    const __m256i zero = _mm256_setzero_si256();
+    const __m256i last_x = _mm256_set1_epi32(nx - 1), last_y = _mm256_set1_epi32(ny - 1);
+    for (; i + 8 <= i1; i += 8) {
+      const double* p = reinterpret_cast<const double*>(x + i);
+      const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
+      const __m512d tx = _mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), iv);
+      const __m512d ty = _mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), iv);
+      const __m256i cx =
+          _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(tx), zero), last_x);
+      const __m256i cy =
+          _mm256_min_epi32(_mm256_max_epi32(_mm512_cvttpd_epi32(ty), zero), last_y);
+      _mm256_storeu_ps(ux + i, _mm512_cvtpd_ps(_mm512_sub_pd(tx, _mm512_cvtepi32_pd(cx))));
+      _mm256_storeu_ps(uy + i, _mm512_cvtpd_ps(_mm512_sub_pd(ty, _mm512_cvtepi32_pd(cy))));
+      const double* q = reinterpret_cast<const double*>(v + i);
+      const __m512d c = _mm512_loadu_pd(q), d = _mm512_loadu_pd(q + 8);
+      _mm256_storeu_ps(vx + i, _mm512_cvtpd_ps(x_of8(c, d)));
+      _mm256_storeu_ps(vy + i, _mm512_cvtpd_ps(y_of8(c, d)));
+    }
+    for (; i < i1; ++i) {
+      const Real tx = (x[i].x() - lo.x()) * inv, ty = (x[i].y() - lo.y()) * inv;
+      ux[i] = static_cast<float>(tx - std::clamp<Index>(static_cast<Index>(tx), 0, nx - 1));
+      uy[i] = static_cast<float>(ty - std::clamp<Index>(static_cast<Index>(ty), 0, ny - 1));
+      vx[i] = static_cast<float>(v[i].x());
+      vy[i] = static_cast<float>(v[i].y());
     }
   }
 

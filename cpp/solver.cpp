@@ -442,8 +442,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
     sort_by_cell(false);  // the cell ranges alone
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_blocks());
-    // the float forces' positions in their cells and velocities (SeedFloats)
-    if (float_pairs_) CellPairs::fill_floats(grid_, ps_.x.data(), ps_.v.data(), n, team(), floats_);
+    if (float_pairs_) floats_.resize(n);  // filled with the EOS (finish_density)
     cell_pair_count_ = cell_pairs_.density(grid_, ps_.x.data(), params_.h, params_.mass,
                                            w(Real(0)), w, ps_.rho.data(), team());
     mark(kNeighbours);
@@ -515,7 +514,10 @@ void Solver::finish_density(Index i0, Index i1) {
     });
   }
   if constexpr (by_cells(F)) {
-    if (float_pairs_) {  // and the float pair forces' p / rho0, rho0 / rho (SeedFloats)
+    if (float_pairs_) {  // and the float pair forces' data (SeedFloats)
+#if SPHFLUID_CELL_PAIRS
+      CellPairs::fill_floats(grid_, ps_.x.data(), ps_.v.data(), i0, i1, floats_);
+#endif
       float* pf = floats_.p.data();
       float* ir = floats_.ir.data();
       const Real inv_rho0 = 1 / rho0;
