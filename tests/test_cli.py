@@ -200,8 +200,8 @@ def test_run_says_which_precision_the_pair_sums_ran_in(tmp_path, capsys):
     assert main(["run", str(scene), "--duration", "0.002", "--quiet"]) == 0
     err = capsys.readouterr().err
     ran = "float" if _core_float_pairs() else "double: float runs without"
-    assert f"method seed (pair sums in {ran}" in err
+    assert f"method seed (pair forces in {ran}" in err
     d["fluid"]["surface_tension"] = 1.0  # the seed with tension keeps its lists, in double
     scene.write_text(json.dumps(d))
     assert main(["run", str(scene), "--duration", "0.002", "--quiet"]) == 0
-    assert "method seed (pair sums in double: float runs without" in capsys.readouterr().err
+    assert "method seed (pair forces in double: float runs without" in capsys.readouterr().err

@@ -44,7 +44,7 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     return scene
 
 
-# What the suite times: the methods, and the seed with its pair sums in float
+# What the suite times: the methods, and the seed with its pair forces in float
 # (solver.pair_precision).
 VARIANTS = ("seed", "wcsph", "seed-float")
 
@@ -218,7 +218,7 @@ def table(rows: list[dict], command: str) -> str:
         phases = " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
         lines.append(f"| {thread_label(r)} | {pairs_label(r)} | {phases} |")
     lines += ["", "Speed-up: against the first row. Pairs: the precision of the seed's pair "
-              "sums (`solver.pair_precision`; README, \"Precision\")."]
+              "forces (`solver.pair_precision`; README, \"Precision\")."]
     if any(thread_label(r) != str(r["threads"]) for r in rows):
         lines += ["", "\"(1 in use)\": below 1,000 particles the step runs on one thread "
                   "whatever is asked (`Simulation.threads_in_use`)."]
@@ -226,7 +226,7 @@ def table(rows: list[dict], command: str) -> str:
 
 
 def pairs_label(r: dict) -> str:
-    """The precision of the pair sums, and what ran where that differs."""
+    """The precision of the pair forces, and what ran where that differs."""
     ran = r.get("pairs_ran", "double")
     asked = r.get("pairs", "double")
     return ran if ran == asked else f"{asked} ({ran} ran)"

@@ -284,7 +284,7 @@ def main(args) -> int:
         "2e7 particle-steps timed (20 to 2,000 steps; the bare loop within its first "
         f"{BARE_STEPS} steps, as the seed's free block without viscosity blows up after "
         "about 330), each configuration in a fresh process. seed-float: the seed with its "
-        "pair sums in float (solver.pair_precision; README, \"Precision\"). \"2 (1 in use)\": "
+        "pair forces in float (solver.pair_precision; README, \"Precision\"). \"2 (1 in use)\": "
         "below 1,000 "
         "particles the step runs on one thread whatever is asked. Bytes per particle: the "
         "solver's arrays (capacity included), and in brackets the process's peak resident "

@@ -92,7 +92,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--method", choices=("seed", "wcsph"), default="seed",
                    help="the method to time (the same fixed dt for both)")
     b.add_argument("--pair-precision", default="double", metavar="PRECISION",
-                   help="the seed's pair sums in double (default) or float, or both as "
+                   help="the seed's pair forces in double (default) or float, or both as "
                         "double,float (interleaved, one table)")
     b.add_argument("--surface-tension", type=float, default=0.0, metavar="SIGMA",
                    help="surface tension coefficient in N/m (default 0: the dam break as "
@@ -149,7 +149,7 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--case", action="append", choices=list(CASES),
                    help="run only this case (repeatable)")
     v.add_argument("--method", choices=VARIANTS,
-                   help="run only this method (seed-float: the seed with its pair sums in "
+                   help="run only this method (seed-float: the seed with its pair forces in "
                         "float, solver.pair_precision)")
     v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     v.add_argument("--out", type=Path, default=Path("docs/validation"),
@@ -230,8 +230,8 @@ def _run(args) -> int:
                       f"{int(math.ceil(duration / scene.time_step - 1e-9)):,} steps")
     precision = ""
     if scene.pair_precision != "double":  # say which ran: float needs the cell clusters
-        precision = (" (pair sums in float)" if sim.stats()["pair_precision"] == "float" else
-                     " (pair sums in double: float runs without surface tension and periodic "
+        precision = (" (pair forces in float)" if sim.stats()["pair_precision"] == "float" else
+                     " (pair forces in double: float runs without surface tension and periodic "
                      "axes, in AVX-512 builds)")
     print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
           f"{len(scene.walls)} walls, method {scene.method}{precision}, {step_text} to "

@@ -350,7 +350,7 @@ class Simulation:
             "dt": self.dt,
             "dt_limit": self.dt_limit,
             "method": self.scene.method,
-            # the precision the seed's pair sums ran in (solver.pair_precision: "float"
+            # the precision the seed's pair forces ran in (solver.pair_precision: "float"
             # runs where the cell clusters do, else "double")
             "pair_precision": "float" if self._solver.float_pairs else "double",
             "n_particles": self.n_particles,

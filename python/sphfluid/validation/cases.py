@@ -20,7 +20,7 @@ from . import reference as ref
 
 G = 9.81
 METHODS = ("seed", "wcsph")
-# What the suite runs: the methods, and the seed with its pair sums in float
+# What the suite runs: the methods, and the seed with its pair forces in float
 # (solver.pair_precision), where they run (not with surface tension).
 VARIANTS = METHODS + ("seed-float",)
 
@@ -115,7 +115,7 @@ class Case:
 
     def applies(self, method: str) -> bool:
         """Whether the variant runs differently from its method here: the float
-        pair sums run where the cell clusters do (no surface tension, no
+        pair forces run where the cell clusters do (no surface tension, no
         periodic axis, an AVX-512 build); elsewhere the seed runs in double."""
         if method != "seed-float":
             return True

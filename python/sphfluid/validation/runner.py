@@ -57,7 +57,7 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("oscillation", "wcsph", 15): 0.19,  # 0.1323
     ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
 }
-# The seed with its pair sums in float must meet the seed's bounds.
+# The seed with its pair forces in float must meet the seed's bounds.
 QUICK_BOUNDS.update({(c, "seed-float", n): b for (c, m, n), b in list(QUICK_BOUNDS.items())
                      if m == "seed" and CASES[c].applies("seed-float")})
 
