@@ -47,3 +47,14 @@ def test_bundled_scenes_run_as_shipped_and_with_each_method(tmp_path):
     for how, method in (("seed, auto", "seed"), ("wcsph, auto", "wcsph")):
         assert runs[("a.json", how)]["solver"] == {"method": method, "time_step": "auto"}
         assert run_one(runs[("a.json", how)] | {"duration": 0.02}, max_wall=60).status == STABLE
+
+
+def test_with_precision_sets_the_seeds_pair_forces_only():
+    from sphfluid.stress import with_precision
+
+    seed = {"solver": {"method": "seed"}}
+    assert with_precision(copy.deepcopy(seed), "float")["solver"]["pair_precision"] == "float"
+    assert "pair_precision" not in with_precision(copy.deepcopy(seed), "double")["solver"]
+    wcsph = {"solver": {"method": "wcsph"}}
+    assert "pair_precision" not in with_precision(wcsph, "float")["solver"]
+    assert with_precision({"solver": {}}, "float")["solver"]["pair_precision"] == "float"

@@ -126,6 +126,9 @@ def _parser() -> argparse.ArgumentParser:
     mode.add_argument("--quick", action="store_true", help="small sweep (default, minutes)")
     mode.add_argument("--full", action="store_true", help="the whole matrix (tens of minutes)")
     s.add_argument("--out", type=Path, default=Path("."), help="folder for the heat-map PNGs")
+    s.add_argument("--pair-precision", choices=("double", "float"), default="double",
+                   help="the seed's pair forces in double (default) or float (its own report "
+                        "section and heat maps)")
     s.add_argument("--write", type=Path, help="write the table into this Markdown file")
     s.add_argument("--scenes", type=Path, default=Path("scenes"),
                    help="with --full, also run every scene in this folder as shipped and with "

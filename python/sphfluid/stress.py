@@ -122,14 +122,22 @@ def run_one(scene: dict, max_wall: float) -> Outcome:
     return Outcome(status, detail, sim.step_count, sim.time, wall, lost, through_walls)
 
 
+def with_precision(d: dict, precision: str) -> dict:
+    """The scene with the seed's pair forces in `precision` (wcsph: as it is)."""
+    if precision != "double" and d["solver"].get("method", "seed") == "seed":
+        d["solver"]["pair_precision"] = precision
+    return d
+
+
 def sweep(kind: str, ks: list[float], dts: list[float | None], spacing: float,
-          duration: float, max_wall: float, log) -> dict:
+          duration: float, max_wall: float, log, precision: str = "double") -> dict:
     results = {}
     for dt in dts:
         for k in ks:
             d = tank_scene(kind, spacing, duration)
             d["fluid"]["gas_constant"] = k
             d["solver"]["time_step"] = "auto" if dt is None else dt
+            with_precision(d, precision)
             o = run_one(d, max_wall)
             results[(k, dt)] = o
             log(f"{kind:9s} k = {k:8.3g}  dt = {'auto' if dt is None else f'{dt:.0e}':>6s}  "
@@ -281,6 +289,8 @@ def main(args) -> int:
     max_wall = 600.0 if full else 30.0
     tank_steps = 1_000_000 if full else 20_000
     out_dir = args.out
+    precision = getattr(args, "pair_precision", "double")
+    suffix = "" if precision == "double" else f"_{precision}"
 
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -310,14 +320,14 @@ def main(args) -> int:
             totals["walls"] += o.through_walls
 
     for kind in ("dam_break", "splash"):
-        fixed = sweep(kind, ks, dts, spacing, duration, max_wall, log)
-        auto = sweep(kind, ks, [None], spacing, duration, max_wall, log)
+        fixed = sweep(kind, ks, dts, spacing, duration, max_wall, log, precision)
+        auto = sweep(kind, ks, [None], spacing, duration, max_wall, log, precision)
         count(fixed)
         count(auto)
-        png = out_dir / f"stability_{kind}.png"
+        png = out_dir / f"stability_{kind}{suffix}.png"
         drew = heat_map({**fixed, **auto}, ks, dts + [None],
-                        f"seed method, {kind.replace('_', ' ')} (spacing {spacing} m, "
-                        f"{duration} s)", png)
+                        f"seed method{'' if precision == 'double' else ', float pair forces'}, "
+                        f"{kind.replace('_', ' ')} (spacing {spacing} m, {duration} s)", png)
         rows = ["| dt \\ k | " + " | ".join(f"{k:.0e}" for k in ks) + " |",
                 "|---|" + "---|" * len(ks)]
         for dt in dts + [None]:
@@ -338,7 +348,7 @@ def main(args) -> int:
     for method in METHODS:
         for name, d in violent_scenes(tank_steps).items():
             d["solver"]["method"] = method
-            o = run_violent(name, d, max_wall * 4)
+            o = run_violent(name, with_precision(d, precision), max_wall * 4)
             violent[(method, name)] = o
             log(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                 f"{o.wall:.1f} s")
@@ -357,7 +367,7 @@ def main(args) -> int:
         if args.scenes.is_dir():
             bundled = {}
             for (name, how), d in bundled_scenes(args.scenes).items():
-                o = run_one(d, max_wall)
+                o = run_one(with_precision(d, precision), max_wall)
                 bundled[(name, how)] = o
                 log(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                     f"{o.wall:.1f} s")
@@ -369,7 +379,9 @@ def main(args) -> int:
                           "|---|---|---|---:|---:|---:|"]
             scene_rows += [row(name, how, o) for (name, how), o in bundled.items()] + [""]
 
-    command = "sphfluid stress " + ("--full" if full else "--quick") + f" --out {out_dir}"
+    which = "" if precision == "double" else f" (pair forces in {precision})"
+    command = ("sphfluid stress " + ("--full" if full else "--quick") + f" --out {out_dir}"
+               + ("" if precision == "double" else f" --pair-precision {precision}"))
     report = "\n".join([
         f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
         f"Command: `{command}` ({time.perf_counter() - start:.0f} s).",
@@ -385,9 +397,9 @@ def main(args) -> int:
         "(anything lost), or when it ends outside an open box below its top. Caught runs say "
         "how many particles had left before the trip.",
         "",
-        f"Sweeps: seed method, fixed dt and adaptive (`auto`, cfl 0.4), spacing {spacing} m, "
-        f"{duration} s simulated (a run stopped by its {max_wall:g} s wall-time cap counts "
-        "as stable up to where it got, and says so in the log).",
+        f"Sweeps: seed method{which}, fixed dt and adaptive (`auto`, cfl 0.4), spacing "
+        f"{spacing} m, {duration} s simulated (a run stopped by its {max_wall:g} s wall-time "
+        "cap counts as stable up to where it got, and says so in the log).",
         "",
         *sections,
         "### Violent scenes",
@@ -400,6 +412,7 @@ def main(args) -> int:
     if args.write:
         from .bench import write_section
 
-        write_section(args.write, report, tag="stress")
+        write_section(args.write, report, tag="stress" + ("" if precision == "double"
+                                                          else f" {precision}"))
         log(f"wrote {args.write}")
     return 1 if totals[SILENT] else 0
