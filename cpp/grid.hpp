@@ -160,11 +160,10 @@ class CellGrid {
   // Particles of cell c (after the permutation): [cell_start(c), cell_start(c + 1)).
   Index cell_start(std::size_t c) const { return cell_start_[c]; }
   const Index* cell_starts() const { return cell_start_.data(); }
-  // Cell (cx, cy) spans [origin + (cx, cy) w, origin + (cx + 1, cy + 1) w) along
-  // the non-periodic axes, w = cell_width() (a hair more than the size asked).
-  // Along a non-periodic axis the sort's cell of a position p is
-  // (p - origin) * inv_width(), truncated and clamped to the grid (a periodic
-  // axis spans its box instead).
+  // Along a non-periodic axis the sort puts a position p in the cell
+  // (p - origin) * inv_width(), truncated and clamped to the grid: cells of
+  // width cell_width(), a hair more than the size asked (a periodic axis
+  // spans its box instead).
   const Vec2& origin() const { return lo_; }
   Real cell_width() const { return width_; }
   Real inv_width() const { return inv_width_; }

@@ -21,7 +21,7 @@ from . import reference as ref
 G = 9.81
 METHODS = ("seed", "wcsph")
 # What the suite runs: the methods, and the seed with its pair forces in float
-# (solver.pair_precision), where they run (not with surface tension).
+# (solver.pair_precision), where they run (no surface tension, no periodic axis).
 VARIANTS = METHODS + ("seed-float",)
 
 
