@@ -297,10 +297,13 @@ class CellPairs {
                     const __mmask8 in = _mm512_mask_cmp_pd_mask(live, r2, h2, _CMP_LT_OQ);
                     // A weight of a few instructions goes without a branch on in
                     // (whose mispredictions cost more); one with a square root not.
-                    if constexpr (!IsCheap<WeightOfR2>::value) {
+                    __m512d wv;
+                    if constexpr (IsCheap<WeightOfR2>::value) {
+                      wv = _mm512_maskz_mov_pd(in, w.unscaled(r2));
+                    } else {
                       if (!in) continue;
+                      wv = _mm512_maskz_mov_pd(in, w(r2));
                     }
-                    const __m512d wv = _mm512_maskz_mov_pd(in, w(r2));
                     acc[q] = _mm512_add_pd(acc[q], wv);
                     wj = _mm512_add_pd(wj, wv);
                     if (count) met += static_cast<unsigned>(__builtin_popcount(in));
@@ -318,7 +321,12 @@ class CellPairs {
               // Every pair of these particles is in now (no later cell adds to them).
               for (int q = 0; q < k; ++q) {
                 const Index i = q0 + q;
-                rho[i] = m * (self + (rho[i] + _mm512_reduce_add_pd(acc[q])));
+                const Real sum = rho[i] + _mm512_reduce_add_pd(acc[q]);
+                if constexpr (IsCheap<WeightOfR2>::value) {
+                  rho[i] = m * (self + w.factor() * sum);
+                } else {
+                  rho[i] = m * (self + sum);
+                }
               }
             });
           }

@@ -35,13 +35,20 @@ struct Kernels {
   // w_poly6 as a function object, also on eight r^2 at once (the neighbour
   // filter's density; lanes with r >= h are the caller's to drop).
   struct Poly6OfR2 {
-    static constexpr bool kCheap = true;  // a polynomial in r^2 (cell_pairs.hpp)
+    // A polynomial in r^2, factor() times unscaled(r2) (cell_pairs.hpp sums
+    // the unscaled weights and applies the factor once per particle).
+    static constexpr bool kCheap = true;
     const Kernels* k;
     Real operator()(Real r2) const { return k->w_poly6(r2); }
+    Real factor() const { return k->poly6; }
 #if defined(__AVX512F__)
     __m512d operator()(__m512d r2) const {
       const __m512d d = _mm512_sub_pd(_mm512_set1_pd(k->h2), r2);
       return _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(k->poly6), d), d), d);
+    }
+    __m512d unscaled(__m512d r2) const {  // (h^2 - r^2)^3
+      const __m512d d = _mm512_sub_pd(_mm512_set1_pd(k->h2), r2);
+      return _mm512_mul_pd(_mm512_mul_pd(d, d), d);
     }
 #endif
   };
