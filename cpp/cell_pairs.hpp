@@ -56,7 +56,7 @@ struct SeedFloats {
   std::vector<float> ux, uy, vx, vy;  // position in its cell / w; velocity
   std::vector<float> p, ir;           // p / rho0, rho0 / rho
   void resize(Index n) {
-    for (auto* a : {&ux, &uy, &vx, &vy, &p, &ir}) a->resize(static_cast<std::size_t>(n) + 8);
+    for (auto* a : {&ux, &uy, &vx, &vy, &p, &ir}) a->resize(static_cast<std::size_t>(n));
   }
   std::size_t bytes() const {
     return (ux.capacity() + uy.capacity() + vx.capacity() + vy.capacity() + p.capacity() +
@@ -259,9 +259,9 @@ class CellPairs {
   // rho_i = m (self + sum_j w(|r_ij|^2)) over j != i with |r_ij| < h, where
   // w(__m512d r2) is the kernel of r^2 (zero-safe: masked lanes are dropped).
   // Returns the number of distinct pairs.
-  template <class WeightOfR2, class Finish = NoFinish>
+  template <class WeightOfR2>
   std::int64_t density(const CellGrid& grid, const Vec2* x, Real h, Real m, Real self,
-                       WeightOfR2 w, Real* rho, int threads, Finish finish = {}) const {
+                       WeightOfR2 w, Real* rho, int threads) const {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     const __m512d h2 = _mm512_set1_pd(h * h);
@@ -332,9 +332,36 @@ class CellPairs {
           }
         }
       }
-      finish(start[y0 * nx], start[y1 * nx]);
     }
     return pairs;
+  }
+
+  // The pair passes' traversal: each block of rows by one thread, its a[]
+  // zeroed first and finish(first, last) called on its particles at the end;
+  // in it each cell's particles a tile of up to kPairTile at a time:
+  // tile(k, q0, cx, cy, s0, s1, runs), k a std::integral_constant of the
+  // tile's size.
+  template <class Tile, class Finish>
+  void for_each_pair_tile(const CellGrid& grid, Vec2* a, int threads, Tile&& tile,
+                          Finish& finish) const {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    const Index nb = blocks();
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index b = 0; b < nb; ++b) {
+      const Index y0 = rows_[b], y1 = rows_[b + 1];
+      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
+      for (Index cy = y0; cy < y1; ++cy) {
+        for (Index cx = 0; cx < nx; ++cx) {
+          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
+          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
+          for (Index q0 = s0; q0 < s1; q0 += kPairTile)
+            with_tile<kPairTile>(s1 - q0,
+                                 [&](auto k) { tile(k, q0, cx, cy, s0, s1, runs); });
+        }
+      }
+      finish(start[y0 * nx], start[y1 * nx]);
+    }
   }
 
   // Pair sums into a (overwritten) by the same cluster loop, in groups of
@@ -347,58 +374,43 @@ class CellPairs {
     constexpr Index kW = Pair::kLanes;
     using V = typename Pair::V;
     using G = std::conditional_t<kW == 8, Group, Group4>;
-    const Index nx = grid.nx(), ny = grid.ny();
-    const Index* start = grid.cell_starts();
     const V zero{}, h2 = splat(zero, h * h);
-    const Index nb = blocks();
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (Index b = 0; b < nb; ++b) {
-      const Index y0 = rows_[b], y1 = rows_[b + 1];
-      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
-      Real* const ad = reinterpret_cast<Real*>(a);
-      for (Index cy = y0; cy < y1; ++cy) {
-        for (Index cx = 0; cx < nx; ++cx) {
-          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
-          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kPairTile) {
-            with_tile<kPairTile>(s1 - q0, [&](auto tile) {
-              constexpr int k = decltype(tile)::value;
-              V fx[k], fy[k];
-              for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
-              auto run = [&](Index j0, Index j1, bool own, bool scatter) {
-                for (Index j = j0; j < j1; j += kW) {
-                  const G g(x, j, j1);
-                  const auto data = pair.load(j, g);
-                  V fjx = zero, fjy = zero;
-                  for (int q = 0; q < k; ++q) {
-                    const Index i = q0 + q;
-                    const __mmask8 live = own ? g.lanes & after<kW>(i, j) : g.lanes;
-                    if (!live) continue;
-                    const V dx = minus(splat(zero, x[i].x()), g.x);
-                    const V dy = minus(splat(zero, x[i].y()), g.y);
-                    const V r2 = norm2(dx, dy);
-                    const __mmask8 in = below(live, r2, h2);
-                    if (!in) continue;
-                    pair.add(i, data, in, dx, dy, r2, fx[q], fy[q], fjx, fjy);
-                  }
-                  if (scatter) add_shares(ad + 2 * static_cast<std::size_t>(j), g, fjx, fjy);
-                }
-              };
-              run(q0 + 1, runs.own_end, true, true);
-              run(runs.above0, runs.above1, false, runs.above_in_block);
-              run(runs.below0, runs.below1, false, false);
-              for (int q = 0; q < k; ++q) {
-                Vec2& ai = a[q0 + q];
-                ai.x() += sum_lanes(fx[q]);
-                ai.y() += sum_lanes(fy[q]);
-              }
-            });
+    Real* const ad = reinterpret_cast<Real*>(a);
+    for_each_pair_tile(grid, a, threads, [&](auto tile, Index q0, Index, Index, Index, Index,
+                                             const Runs& runs) {
+      constexpr int k = decltype(tile)::value;
+      V fx[k], fy[k];
+      for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
+      auto run = [&](Index j0, Index j1, bool own, bool scatter) {
+        for (Index j = j0; j < j1; j += kW) {
+          const G g(x, j, j1);
+          const auto data = pair.load(j, g);
+          V fjx = zero, fjy = zero;
+          for (int q = 0; q < k; ++q) {
+            const Index i = q0 + q;
+            const __mmask8 live = own ? g.lanes & after<kW>(i, j) : g.lanes;
+            if (!live) continue;
+            const V dx = minus(splat(zero, x[i].x()), g.x);
+            const V dy = minus(splat(zero, x[i].y()), g.y);
+            const V r2 = norm2(dx, dy);
+            const __mmask8 in = below(live, r2, h2);
+            if (!in) continue;
+            pair.add(i, data, in, dx, dy, r2, fx[q], fy[q], fjx, fjy);
           }
+          if (scatter) add_shares(ad + 2 * static_cast<std::size_t>(j), g, fjx, fjy);
         }
+      };
+      run(q0 + 1, runs.own_end, true, true);
+      run(runs.above0, runs.above1, false, runs.above_in_block);
+      run(runs.below0, runs.below1, false, false);
+      for (int q = 0; q < k; ++q) {
+        Vec2& ai = a[q0 + q];
+        ai.x() += sum_lanes(fx[q]);
+        ai.y() += sum_lanes(fy[q]);
       }
-      finish(start[y0 * nx], start[y1 * nx]);
-    }
+    }, finish);
   }
+
 
   // The seed's pressure and viscosity pair terms (eqs. 14, 17) as force
   // densities: for i, -m (p_i + p_j) / (2 rho_j) grad W_spiky(r_ij) + eta m /
@@ -612,7 +624,7 @@ class CellPairs {
   template <bool Viscosity, class Finish>
   void seed_forces_float(const CellGrid& grid, const SeedFloats& f, Real h, Real s, Real l,
                          Vec2* a, int threads, Finish finish) const {
-    const Index nx = grid.nx(), ny = grid.ny();
+    const Index nx = grid.nx();
     const Index* start = grid.cell_starts();
     const __m256 zero = _mm256_setzero_ps();
     // h in cells (a hair below 1: the cells are a hair wider than h), and its
@@ -625,82 +637,68 @@ class CellPairs {
     const __m512d scale = _mm512_set1_pd(s);
     const float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
     const float *pp = f.p.data(), *ir = f.ir.data();
-    const Index nb = blocks();
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (Index b = 0; b < nb; ++b) {
-      const Index y0 = rows_[b], y1 = rows_[b + 1];
-      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
-      Real* const ad = reinterpret_cast<Real*>(a);
-      for (Index cy = y0; cy < y1; ++cy) {
-        for (Index cx = 0; cx < nx; ++cx) {
-          const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
-          const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kPairTile) {
-            with_tile<kPairTile>(s1 - q0, [&](auto tile) {
-              constexpr int k = decltype(tile)::value;
-              __m256 fx[k], fy[k];
-              for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
-              float_runs(start, nx, cx, cy, q0, s0, s1, runs,
-                         [&](Index j0, Index j1, bool own, bool scatter, Index left,
-                             Index right, float rows_up) {
-                const __m256 shift = _mm256_set1_ps(rows_up);
-                for (Index j = j0; j < j1; j += 8) {
-                  const GroupF g(f, j, j1, left, right, shift);
-                  const __m256 pj = _mm256_maskz_loadu_ps(g.lanes, pp + j);
-                  const __m256 irj = _mm256_maskz_loadu_ps(g.lanes, ir + j);
-                  __m256 vxj = zero, vyj = zero;
-                  if constexpr (Viscosity) {
-                    vxj = _mm256_maskz_loadu_ps(g.lanes, vx + j);
-                    vyj = _mm256_maskz_loadu_ps(g.lanes, vy + j);
-                  }
-                  __m256 fjx = zero, fjy = zero;
-                  for (int q = 0; q < k; ++q) {
-                    const Index i = q0 + q;
-                    const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
-                    if (!live) continue;
-                    const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(ux[i]), g.x);
-                    const __m256 dy = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
-                    const __m256 r2 = _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy));
-                    const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, h2, _CMP_LT_OQ);
-                    if (!in) continue;
-                    // as SeedPair::add: d = hc - r at least 0, zero at r = 0
-                    const __m256 rl = _mm256_sqrt_ps(r2);
-                    const __m256 d = _mm256_max_ps(_mm256_sub_ps(hv, rl), zero);
-                    const __mmask8 nz = _mm256_mask_cmp_ps_mask(in, r2, zero, _CMP_GT_OQ);
-                    const __m256 grad = _mm256_maskz_div_ps(nz, _mm256_mul_ps(d, d), rl);
-                    const __m256 fp = _mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(pp[i]), pj), grad);
-                    __m256 tx = _mm256_maskz_mul_ps(in, fp, dx);
-                    __m256 ty = _mm256_maskz_mul_ps(in, fp, dy);
-                    if constexpr (Viscosity) {
-                      const __m256 lap = _mm256_maskz_mul_ps(in, lap_c, d);
-                      const __m256 dvx = _mm256_sub_ps(vxj, _mm256_set1_ps(vx[i]));
-                      const __m256 dvy = _mm256_sub_ps(vyj, _mm256_set1_ps(vy[i]));
-                      tx = _mm256_mask_fmadd_ps(lap, in, dvx, tx);
-                      ty = _mm256_mask_fmadd_ps(lap, in, dvy, ty);
-                    }
-                    fx[q] = _mm256_fmadd_ps(irj, tx, fx[q]);
-                    fy[q] = _mm256_fmadd_ps(irj, ty, fy[q]);
-                    const __m256 iri = _mm256_set1_ps(ir[i]);
-                    fjx = _mm256_fnmadd_ps(iri, tx, fjx);
-                    fjy = _mm256_fnmadd_ps(iri, ty, fjy);
-                  }
-                  if (scatter)
-                    add_shares(ad + 2 * static_cast<std::size_t>(j), g,
-                               _mm512_mul_pd(scale, _mm512_cvtps_pd(fjx)),
-                               _mm512_mul_pd(scale, _mm512_cvtps_pd(fjy)));
-                }
-              });
-              for (int q = 0; q < k; ++q) {
-                Vec2& ai = a[q0 + q];
-                ai.x() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fx[q]));
-                ai.y() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fy[q]));
-              }
-            });
+    Real* const ad = reinterpret_cast<Real*>(a);
+    for_each_pair_tile(grid, a, threads, [&](auto tile, Index q0, Index cx, Index cy, Index s0,
+                                             Index s1, const Runs& runs) {
+      constexpr int k = decltype(tile)::value;
+      __m256 fx[k], fy[k];
+      for (int q = 0; q < k; ++q) fx[q] = fy[q] = zero;
+      float_runs(start, nx, cx, cy, q0, s0, s1, runs,
+                 [&](Index j0, Index j1, bool own, bool scatter, Index left,
+                     Index right, float rows_up) {
+        const __m256 shift = _mm256_set1_ps(rows_up);
+        for (Index j = j0; j < j1; j += 8) {
+          const GroupF g(f, j, j1, left, right, shift);
+          const __m256 pj = _mm256_maskz_loadu_ps(g.lanes, pp + j);
+          const __m256 irj = _mm256_maskz_loadu_ps(g.lanes, ir + j);
+          __m256 vxj = zero, vyj = zero;
+          if constexpr (Viscosity) {
+            vxj = _mm256_maskz_loadu_ps(g.lanes, vx + j);
+            vyj = _mm256_maskz_loadu_ps(g.lanes, vy + j);
           }
+          __m256 fjx = zero, fjy = zero;
+          for (int q = 0; q < k; ++q) {
+            const Index i = q0 + q;
+            const __mmask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
+            if (!live) continue;
+            const __m256 dx = _mm256_sub_ps(_mm256_set1_ps(ux[i]), g.x);
+            const __m256 dy = _mm256_sub_ps(_mm256_set1_ps(uy[i]), g.y);
+            const __m256 r2 = _mm256_fmadd_ps(dx, dx, _mm256_mul_ps(dy, dy));
+            const __mmask8 in = _mm256_mask_cmp_ps_mask(live, r2, h2, _CMP_LT_OQ);
+            if (!in) continue;
+            // as SeedPair::add: d = hc - r at least 0, zero at r = 0
+            const __m256 rl = _mm256_sqrt_ps(r2);
+            const __m256 d = _mm256_max_ps(_mm256_sub_ps(hv, rl), zero);
+            const __mmask8 nz = _mm256_mask_cmp_ps_mask(in, r2, zero, _CMP_GT_OQ);
+            const __m256 grad = _mm256_maskz_div_ps(nz, _mm256_mul_ps(d, d), rl);
+            const __m256 fp = _mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(pp[i]), pj), grad);
+            __m256 tx = _mm256_maskz_mul_ps(in, fp, dx);
+            __m256 ty = _mm256_maskz_mul_ps(in, fp, dy);
+            if constexpr (Viscosity) {
+              const __m256 lap = _mm256_maskz_mul_ps(in, lap_c, d);
+              const __m256 dvx = _mm256_sub_ps(vxj, _mm256_set1_ps(vx[i]));
+              const __m256 dvy = _mm256_sub_ps(vyj, _mm256_set1_ps(vy[i]));
+              tx = _mm256_mask_fmadd_ps(lap, in, dvx, tx);
+              ty = _mm256_mask_fmadd_ps(lap, in, dvy, ty);
+            }
+            fx[q] = _mm256_fmadd_ps(irj, tx, fx[q]);
+            fy[q] = _mm256_fmadd_ps(irj, ty, fy[q]);
+            const __m256 iri = _mm256_set1_ps(ir[i]);
+            fjx = _mm256_fnmadd_ps(iri, tx, fjx);
+            fjy = _mm256_fnmadd_ps(iri, ty, fjy);
+          }
+          if (scatter)
+            add_shares(ad + 2 * static_cast<std::size_t>(j), g,
+                       _mm512_mul_pd(scale, _mm512_cvtps_pd(fjx)),
+                       _mm512_mul_pd(scale, _mm512_cvtps_pd(fjy)));
         }
+      });
+      for (int q = 0; q < k; ++q) {
+        Vec2& ai = a[q0 + q];
+        ai.x() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fx[q]));
+        ai.y() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fy[q]));
       }
-      finish(start[y0 * nx], start[y1 * nx]);
-    }
+    }, finish);
   }
 
   template <bool Viscosity>
