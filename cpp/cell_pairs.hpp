@@ -64,7 +64,9 @@ struct SeedFloats {
   }
 };
 
-// Whether a kernel of r^2 says it is cheap (a polynomial in r^2: kCheap).
+// Whether a kernel of r^2 says it is cheap: a polynomial in r^2 (kCheap), whose
+// weights the density sums without a branch as unscaled(r2), applying factor()
+// once per particle.
 template <class W, class = void>
 struct IsCheap : std::false_type {};
 template <class W>

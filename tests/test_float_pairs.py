@@ -46,7 +46,7 @@ def evaluated(h, float_pairs, origin=0.0, n_side=40):
     walls = origin + np.array([[[0.0, 0.0], [side, 0.0]], [[0.0, side], [0.0, 0.0]]])
     v *= h / 0.02  # velocities that scale with the resolution (a fixed CFL number)
     s = _core.Solver(params(h, float_pairs, origin, side), x, v, walls, np.arange(len(x)))
-    assert s.float_pairs == float_pairs or not float_pairs and not s.float_pairs
+    assert s.float_pairs == float_pairs
     s.compute_forces()
     o = np.argsort(s.ids)
     return s, s.accelerations[o] - GRAVITY, s.densities[o], s.pressures[o]
