@@ -45,3 +45,25 @@ def test_tables_show_efficiency_against_one_thread():
     assert "| 2 (1 in use) |" in bench_suite.phase_table([dict(two, in_use=1)])
     assert bench_suite.steps_for(1_000_000) == (5, 20)
     assert bench_suite.steps_for(1_000)[1] == 2000
+
+
+def test_repeats_report_the_median_run_and_the_range():
+    runs = [{"steps_per_s": v, "wall": 1 / v, "tag": v} for v in (90.0, 120.0, 100.0)]
+    m = bench_suite.median_of(runs)
+    assert m["tag"] == 100.0 and m["range"] == (90.0, 120.0) and m["failed"] == 0
+    # By wall time for the time to solution: the middle run, not the mean.
+    w = bench_suite.median_of(runs, key="wall", higher_is_faster=False)
+    assert w["tag"] == 100.0
+    # A failed run is counted and left out; all failed: the failure itself.
+    m = bench_suite.median_of(runs[:2] + [{"error": "crashed"}])
+    assert m["failed"] == 1 and m["tag"] == 90.0 and m["range"] == (90.0, 120.0)
+    assert "wall" not in bench_suite.median_of([{"error": "crashed"}] * 2)
+    # The time to solution's "error" is its front error, not a failure.
+    tts = [{"wall": w, "error": 0.2} for w in (0.6, 0.5, 0.7)]
+    m = bench_suite.median_of(tts, key="wall", higher_is_faster=False)
+    assert m["wall"] == 0.6 and m["failed"] == 0 and m["range"] == (0.5, 0.7)
+    row = {"kind": "dam", "method": "seed", "threads": 1, "particles": 1000, "steps": 100,
+           "wall": 1.0, "steps_per_s": 100.0, "pps": 1e5, "ns_per_ps": 1e4,
+           "phases_us": {"sort": 1.0}, "pairs_per_particle": 10.0, "bytes_per_particle": 190.0,
+           "peak_bytes_per_particle": 400.0, "runs": 3, "failed": 1, "range": (90.0, 120.0)}
+    assert "| 90.0–120.0 (1 failed) |" in bench_suite.throughput_table([row])

@@ -5,7 +5,8 @@ peers (PySPH, SPlisHSPlasH) when installed. Writes the tables and a log-log plot
 of time per step against N.
 
 Every timed configuration runs in a fresh child process, so its peak memory is
-its own. Bytes per particle: the solver's arrays (``Solver.memory_bytes``,
+its own, --repeat times (default 3) in rounds over all the configurations; the
+median run is reported with the range. Bytes per particle: the solver's arrays (``Solver.memory_bytes``,
 capacity included) / particles, and the process's peak resident memory above
 what it held after its imports / particles (set-up temporaries included).
 """
@@ -101,6 +102,21 @@ def run_child(kind: str, method: str, n_target: int, threads: int, timeout: floa
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def median_of(runs: list[dict], key: str = "steps_per_s", higher_is_faster: bool = True) -> dict:
+    """The median run of one configuration's repeats (of an even count, the slower
+    of the two middle ones), with the range of `key` over the runs that completed
+    and how many failed. All failed: the first failure."""
+    done = [r for r in runs if "wall" in r]  # a failed run has no wall time
+    if not done:
+        return dict(runs[0], runs=len(runs), failed=len(runs))
+    done.sort(key=lambda r: r[key], reverse=higher_is_faster)
+    out = dict(done[len(done) // 2])
+    out["range"] = (min(r[key] for r in done), max(r[key] for r in done))
+    out["runs"] = len(runs)
+    out["failed"] = len(runs) - len(done)
+    return out
+
+
 def time_to_solution(method: str, n_target: int, threads: int, end: float = 1.0) -> dict:
     """Wall time for `end` s of the dam break with adaptive steps, and its front
     error against Martin & Moyce (no shift; Z < 4)."""
@@ -192,25 +208,29 @@ def scaling_plot(rows: list[dict], path: Path) -> bool:
 
 
 def throughput_table(rows: list[dict]) -> str:
-    lines = [("| method | scene | particles | threads | steps | steps/s | particle-steps/s | "
-             "ns/particle-step | parallel efficiency | neighbours/particle | bytes/particle "
-             "(process peak) | front Z (M&M) at T |"),
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    lines = [("| method | scene | particles | threads | steps | steps/s | range | "
+             "particle-steps/s | ns/particle-step | parallel efficiency | neighbours/particle | "
+             "bytes/particle (process peak) | front Z (M&M) at T |"),
+             "|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|"]
     one = {(r["method"], r["kind"], r["particles"]): r for r in rows
            if r.get("threads") == 1 and "wall" in r}
     for r in rows:
         if "wall" not in r:
             lines.append(f"| {r['method']} | {r['kind']} | ~{r['target']:,} | {r['threads']} | "
-                         f"| failed: {r['error']} | | | | | | |")
+                         f"| failed: {r['error']} | | | | | | | |")
             continue
         ref = one.get((r["method"], r["kind"], r["particles"]))
         eff = (f"{r['steps_per_s'] / (r['threads'] * ref['steps_per_s']):.0%}"
                if ref and r.get("in_use", r["threads"]) > 1 else "")
         front = (f"{r['Z']:.3f} ({r['Z_ref']:.3f}) at {r['T']:.3f}" if "Z" in r else "")
+        spread = ""
+        if r.get("runs", 1) > 1:
+            lo, hi = r["range"]
+            spread = f"{lo:,.1f}–{hi:,.1f}" + (f" ({r['failed']} failed)" if r["failed"] else "")
         lines.append(
             f"| {r['method']} | {'dam break' if r['kind'] == 'dam' else 'bare loop'} | "
             f"{r['particles']:,} | {thread_label(r)} | {r['steps']:,} | {r['steps_per_s']:,.1f} | "
-            f"{r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | {eff} | "
+            f"{spread} | {r['pps'] / 1e6:.2f} M | {r['ns_per_ps']:.1f} | {eff} | "
             f"{r['pairs_per_particle']:.1f} | {r['bytes_per_particle']:.0f} "
             f"({r['peak_bytes_per_particle']:.0f}) | {front} |")
     return "\n".join(lines)
@@ -239,51 +259,64 @@ def main(args) -> int:
         print(line, file=sys.stderr, flush=True)
 
     start = time.perf_counter()
-    rows = []
-    for method in methods:
-        for kind in ("dam", "bare"):
-            for n in sizes if kind == "dam" else [s for s in sizes if s <= 100_000]:
-                for threads in (1, 2):
-                    r = run_child(kind, method, n, threads, timeout=1800)
-                    r.setdefault("method", method)
-                    r.setdefault("kind", kind)
-                    r.setdefault("threads", threads)
-                    r["target"] = n
-                    rows.append(r)
-                    log(f"{method:10s} {kind:4s} ~{n:>9,} {threads} thr: " + (
-                        f"{r['steps_per_s']:9.1f} steps/s {r['ns_per_ps']:7.1f} ns/particle-step "
-                        f"{r['bytes_per_particle']:5.0f} B/particle" if "wall" in r
-                        else f"failed: {r['error']}"))
-    tts = []
-    for method in methods:
-        for n in (args.tts_sizes or "1000,3000,10000").split(","):
-            r = time_to_solution(method, int(n), 2)
-            tts.append(r)
-            log(f"time to solution {method} {r['particles']:,}: {r['wall']:.2f} s, "
-                f"{r['steps']:,} steps, front error {r['error']:.3f}")
+    repeat = max(1, args.repeat)
+    configs = [(method, kind, n, threads) for method in methods for kind in ("dam", "bare")
+               for n in (sizes if kind == "dam" else [s for s in sizes if s <= 100_000])
+               for threads in (1, 2)]
+    # Rounds over all the configurations, so that a slow spell of the machine
+    # falls on one run of many configurations rather than on all runs of one.
+    runs: dict[tuple, list[dict]] = {c: [] for c in configs}
+    for round_ in range(1, repeat + 1):
+        for method, kind, n, threads in configs:
+            r = run_child(kind, method, n, threads, timeout=1800)
+            r.setdefault("method", method)
+            r.setdefault("kind", kind)
+            r.setdefault("threads", threads)
+            r["target"] = n
+            runs[(method, kind, n, threads)].append(r)
+            log(f"[{round_}/{repeat}] {method:10s} {kind:4s} ~{n:>9,} {threads} thr: " + (
+                f"{r['steps_per_s']:9.1f} steps/s {r['ns_per_ps']:7.1f} ns/particle-step "
+                f"{r['bytes_per_particle']:5.0f} B/particle" if "wall" in r
+                else f"failed: {r['error']}"))
+    rows = [median_of(runs[c]) for c in configs]
+    tts_configs = [(method, int(n)) for method in methods
+                   for n in (args.tts_sizes or "1000,3000,10000").split(",")]
+    tts_runs: dict[tuple, list[dict]] = {c: [] for c in tts_configs}
+    for round_ in range(1, repeat + 1):
+        for method, n in tts_configs:
+            r = time_to_solution(method, n, 2)
+            tts_runs[(method, n)].append(r)
+            log(f"[{round_}/{repeat}] time to solution {method} {r['particles']:,}: "
+                f"{r['wall']:.2f} s, {r['steps']:,} steps, front error {r['error']:.3f}")
+    tts = [median_of(tts_runs[c], key="wall", higher_is_faster=False) for c in tts_configs]
 
 
     info = _core.build_info
     png = args.out / "bench_scaling.png"
     drew = scaling_plot(rows, png)
     rel = os.path.relpath(png, args.write.parent if args.write else Path("."))
-    tts_lines = [("| method | particles | steps | wall s (2 threads) | front error, no shift | "
-                 "best shift: error (shift) |"), "|---|---:|---:|---:|---:|---|"]
+    tts_lines = [("| method | particles | steps | wall s (2 threads) | range | front error, "
+                  "no shift | best shift: error (shift) |"), "|---|---:|---:|---:|---|---:|---|"]
     for r in tts:
         s, e = r["shifted"]
+        lo, hi = r["range"]
         tts_lines.append(f"| {r['method']} | {r['particles']:,} | {r['steps']:,} | "
-                         f"{r['wall']:.2f} | {r['error']:.3f} | {e:.3f} ({s:.2f}) |")
+                         f"{r['wall']:.2f} | {lo:.2f}–{hi:.2f} | {r['error']:.3f} | "
+                         f"{e:.3f} ({s:.2f}) |")
     text = "\n".join([
         f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, -march=native "
         f"{'on' if info['march_native'] else 'off'}, OpenMP {info['openmp']}, {info['real']}. "
         f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
-        + (f" --sizes {args.sizes}" if args.sizes else "") + "` "
+        + (f" --sizes {args.sizes}" if args.sizes else "")
+        + (f" --repeat {repeat}" if repeat != 3 else "") + "` "
         f"({time.perf_counter() - start:.0f} s in all).",
         "",
         ("Fixed dt (the seed: 2e-4 s x dx/0.02 m; wcsph: 0.3 (h/2)/c0), warm-up then about "
         "2e7 particle-steps timed (20 to 2,000 steps; the bare loop within its first "
         f"{BARE_STEPS} steps, as the seed's free block without viscosity blows up after "
-        "about 330), each configuration in a fresh process. seed-float: the seed with its "
+        f"about 330), each configuration in a fresh process, {repeat} time(s) in rounds over "
+        "all of them; the median run is reported, with the range of steps/s (time to "
+        "solution: of wall time). seed-float: the seed with its "
         "pair forces in float (solver.pair_precision; README, \"Precision\"). \"2 (1 in use)\": "
         "below 1,000 "
         "particles the step runs on one thread whatever is asked. Bytes per particle: the "

@@ -98,7 +98,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="surface tension coefficient in N/m (default 0: the dam break as "
                         "bundled; with it, what a scene with tension costs)")
     b.add_argument("--repeat", type=_count, default=3,
-                   help="runs per thread count, interleaved; the median is reported")
+                   help="runs per thread count, interleaved (with --suite: per "
+                        "configuration, in rounds); the median is reported")
     b.add_argument("--write", type=Path, help="write the table into this Markdown file")
     b.add_argument("--draw", action="store_true",
                    help="instead: time drawing one viewer frame in each colour mode")
