@@ -222,6 +222,21 @@ class CellPairs {
   }
   static double sum_lanes(__m512d v) { return _mm512_reduce_add_pd(v); }
   static double sum_lanes(__m256d v) { return sum4(v); }
+  // The lane sums of eight vectors a..h at once, as (a, e, b, f, c, g, d, h):
+  // each vector's lanes paired as _mm512_reduce_add_pd pairs them (l + (l + 4),
+  // then those two apart, then the last two), so each sum has the same bits.
+  static __m512d sum8(__m512d a, __m512d b, __m512d c, __m512d d, __m512d e, __m512d f,
+                      __m512d g, __m512d h) {
+    auto halves = [](__m512d u, __m512d v) {  // (u0 + u4, .., u3 + u7, v0 + v4, ..)
+      return _mm512_add_pd(_mm512_shuffle_f64x2(u, v, 0x44), _mm512_shuffle_f64x2(u, v, 0xEE));
+    };
+    auto quarters = [](__m512d u, __m512d v) {  // (u0 + u2, u1 + u3, u4 + u6, u5 + u7, v..)
+      return _mm512_add_pd(_mm512_shuffle_f64x2(u, v, 0x88), _mm512_shuffle_f64x2(u, v, 0xDD));
+    };
+    const __m512d abcd = quarters(halves(a, b), halves(c, d));
+    const __m512d efgh = quarters(halves(e, f), halves(g, h));
+    return _mm512_add_pd(_mm512_unpacklo_pd(abcd, efgh), _mm512_unpackhi_pd(abcd, efgh));
+  }
 #endif
 
  public:
@@ -405,10 +420,23 @@ class CellPairs {
       run(q0 + 1, runs.own_end, true, true);
       run(runs.above0, runs.above1, false, runs.above_in_block);
       run(runs.below0, runs.below1, false, false);
-      for (int q = 0; q < k; ++q) {
-        Vec2& ai = a[q0 + q];
-        ai.x() += sum_lanes(fx[q]);
-        ai.y() += sum_lanes(fy[q]);
+      if constexpr (kW == 8) {
+        // The tile's sums in one vector, (x, y) of each particle as a[] holds them.
+        __m512d sx[4], sy[4];
+        for (int q = 0; q < 4; ++q) {
+          sx[q] = q < k ? fx[q] : zero;
+          sy[q] = q < k ? fy[q] : zero;
+        }
+        const __m512d sums = sum8(sx[0], sx[1], sx[2], sx[3], sy[0], sy[1], sy[2], sy[3]);
+        const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
+        Real* out = ad + 2 * static_cast<std::size_t>(q0);
+        _mm512_mask_storeu_pd(out, mine, _mm512_add_pd(_mm512_maskz_loadu_pd(mine, out), sums));
+      } else {
+        for (int q = 0; q < k; ++q) {
+          Vec2& ai = a[q0 + q];
+          ai.x() += sum_lanes(fx[q]);
+          ai.y() += sum_lanes(fy[q]);
+        }
       }
     }, finish);
   }
@@ -695,11 +723,18 @@ class CellPairs {
                        _mm512_mul_pd(scale, _mm512_cvtps_pd(fjy)));
         }
       });
-      for (int q = 0; q < k; ++q) {
-        Vec2& ai = a[q0 + q];
-        ai.x() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fx[q]));
-        ai.y() += s * _mm512_reduce_add_pd(_mm512_cvtps_pd(fy[q]));
+      // The tile's sums in one vector, (x, y) of each particle as a[] holds
+      // them: a_i += s (sum of i's lanes, widened to double).
+      __m512d wx[4], wy[4];
+      for (int q = 0; q < 4; ++q) {
+        wx[q] = q < k ? _mm512_cvtps_pd(fx[q]) : _mm512_setzero_pd();
+        wy[q] = q < k ? _mm512_cvtps_pd(fy[q]) : _mm512_setzero_pd();
       }
+      const __m512d sums = sum8(wx[0], wx[1], wx[2], wx[3], wy[0], wy[1], wy[2], wy[3]);
+      const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
+      double* out = ad + 2 * static_cast<std::size_t>(q0);
+      _mm512_mask_storeu_pd(out, mine,
+                            _mm512_fmadd_pd(scale, sums, _mm512_maskz_loadu_pd(mine, out)));
     }, finish);
   }
 
