@@ -51,10 +51,10 @@ namespace sphfluid {
 // rounded once per evaluation. The quantities are scaled to be of order one
 // whatever the units (no overflow nor underflow from powers of h). A
 // particle's own sums (its eight lanes) are widened to double before they are
-// added; the shares it gets as the second particle of a pair are summed in
-// float, in jx and jy, and widened once, when its pair block is done (the
-// float sums of the groups before them are of the same few terms: the largest
-// force error, 4.3e-7 of the largest force, did not change).
+// added; the shares it gets as the second particle of a pair, a few group sums
+// that are float sums already, are summed in float too, in jx and jy, and
+// widened once, when its pair block is done (the largest force error, 4.3e-7
+// of the largest force, did not change with it).
 struct SeedFloats {
   std::vector<float> ux, uy, vx, vy;  // position in its cell / w; velocity
   std::vector<float> p, ir;           // p / rho0, rho0 / rho

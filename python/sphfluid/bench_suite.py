@@ -6,9 +6,10 @@ of time per step against N.
 
 Every timed configuration runs in a fresh child process, so its peak memory is
 its own, --repeat times (default 3) in rounds over all the configurations; the
-median run is reported with the range. Bytes per particle: the solver's arrays (``Solver.memory_bytes``,
-capacity included) / particles, and the process's peak resident memory above
-what it held after its imports / particles (set-up temporaries included).
+median run is reported with the range. Bytes per particle: the solver's arrays
+(``Solver.memory_bytes``, capacity included) / particles, and the process's
+peak resident memory above what it held after its imports / particles (set-up
+temporaries included).
 """
 from __future__ import annotations
 
