@@ -198,6 +198,17 @@ void bind_solver(py::module_& m) {
             return d;
           },
           "heap bytes held by the solver's arrays, by part (capacity included)")
+      .def_property_readonly(
+          "sort_counts",
+          [](const Solver& s) {
+            py::dict d;
+            d["unchanged"] = s.sort_counts()[0];
+            d["moved"] = s.sort_counts()[1];
+            d["permuted"] = s.sort_counts()[2];
+            return d;
+          },
+          "sorts by cell so far, by what they did: no particle changed cell (unchanged), "
+          "the few that did were moved into place (moved), or all were permuted")
       .def_property_readonly("neighbour_pairs", &Solver::neighbour_pairs,
                              "stored neighbour pairs (i, j != i) of the last evaluation")
       .def_property_readonly(

@@ -4,13 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
 namespace sphfluid {
 
-void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
-                    std::vector<Index>& order, const PeriodicBox& box, bool cells_in_order) {
+CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
+                                 std::vector<Index>& order, const PeriodicBox& box,
+                                 bool in_last_order) {
   // Cells a hair larger than asked: the rounding of two cell coordinates then
   // cannot put two points closer than cell_size two cells apart (with up to
   // ~1e7 cells along an axis).
@@ -54,9 +56,13 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       hy = std::max(hy, x[i].y());
     }
   }
-  Vec2 lo(lx, ly);
   const Vec2 hi(hx, hy);
   const Real inv_cell = 1 / cell_size;
+  // The grid's corner on a lattice of cells fixed in space (a whole number of
+  // cells from the coordinates' origin), not at the lowest particle: a
+  // particle then changes cell only when it crosses a cell's edge, not when
+  // the bounding box moves, so the order changes little from step to step.
+  Vec2 lo(std::floor(lx * inv_cell) * cell_size, std::floor(ly * inv_cell) * cell_size);
   double cx = std::floor((hi.x() - lo.x()) * inv_cell) + 1;
   double cy = std::floor((hi.y() - lo.y()) * inv_cell) + 1;
   // A periodic axis spans the box with a whole number of cells of at least the
@@ -77,21 +83,18 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
   if (!(cx * cy < 2.0e9))
     throw std::runtime_error("cell grid of " + std::to_string(cx) + " x " + std::to_string(cy) +
                              " cells is too large");
-  nx_ = static_cast<Index>(cx);
-  ny_ = static_cast<Index>(cy);
+  const Index nx = static_cast<Index>(cx), ny = static_cast<Index>(cy);
+  const bool same = in_last_order && n == sorted_n_ && !box.any() && nx == nx_ && ny == ny_ &&
+                    lo == lo_ && cell_size == width_;
+  nx_ = nx;
+  ny_ = ny;
   lo_ = lo;
   width_ = cell_size;
   inv_width_ = inv_cell;
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
 
-  // cell_of_ first holds each particle's cell in input order, then (below,
-  // with cells_in_order) in sorted order: one array of n instead of two.
-  cell_of_.resize(n);
-  cell_start_.assign(n_cells + 1, 0);
-  order.resize(n);
-  Index* cell = cell_of_.data();
-  Index* start = cell_start_.data();
-  const Index nx = nx_, ny = ny_;
+  cell_in_.resize(n);
+  Index* cell = cell_in_.data();
   auto cell_index = [&](const Vec2& p) {
     // Clamped both ways: a wrapped position may round to the box's far edge.
     const Index ix = std::clamp<Index>(static_cast<Index>((p.x() - lo.x()) * inv.x()), 0, nx - 1);
@@ -124,13 +127,41 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
 #endif
     for (; i < b1; ++i) cell[i] = cell_index(x[i]);
   };
+  if (same) {
+    // The particles in the last sort's order: where few changed cell, they
+    // are moved into place and the cell ranges adjusted (resort); else the
+    // counting sort below, with these cells.
+    if (nt == 1) {
+      cells_of(0, n);
+    } else {
+#pragma omp parallel for schedule(static) num_threads(nt)
+      for (int t = 0; t < nt; ++t) {
+        const Share s = share_of(n, t, nt);
+        cells_of(s.first, s.last);
+      }
+    }
+    if (resort(n, order)) return moves_.empty() ? Reorder::kNone : Reorder::kMoves;
+  }
+
+  // The counting sort: the cell ranges, the permutation, and the cells in
+  // sorted order (for the next sort's resort, and the neighbour lists).
+  cell_of_.resize(n);
+  cell_start_.assign(n_cells + 1, 0);
+  order.resize(n);
+  Index* sorted = cell_of_.data();
+  Index* start = cell_start_.data();
+  sorted_n_ = n;
   if (nt == 1) {
-    cells_of(0, n);
+    if (!same) cells_of(0, n);
     for (Index i = 0; i < n; ++i) ++start[cell[i] + 1];
     for (std::size_t c = 0; c < n_cells; ++c) start[c + 1] += start[c];
     // Stable scatter: particles keep their relative order within a cell.
-    cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
-    for (Index i = 0; i < n; ++i) order[cursor_[cell[i]]++] = i;
+    cursor_.assign(cell_start_.begin(), cell_start_.end());  // (resort's scratch: n_cells + 1)
+    for (Index i = 0; i < n; ++i) {
+      const Index c = cell[i], k = cursor_[c]++;
+      order[k] = i;
+      sorted[k] = c;
+    }
   } else {
     // Each thread counts its block of particles into its own histogram; a
     // thread's particles of a cell go after those of the threads before it,
@@ -141,7 +172,7 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       const int t = thread_rank(), team = thread_team_size();
       const auto [b0, b1] = share_of(n, t, team);
       Index* mine = cursor_.data() + static_cast<std::size_t>(t) * n_cells;
-      cells_of(b0, b1);
+      if (!same) cells_of(b0, b1);
       for (Index i = b0; i < b1; ++i) ++mine[cell[i]];
 #pragma omp barrier
 #pragma omp for schedule(static)
@@ -157,14 +188,139 @@ void CellGrid::sort(const Vec2* x, Index n, Real cell_size, int threads,
       }
 #pragma omp single
       for (std::size_t c = 0; c < n_cells; ++c) start[c + 1] += start[c];
-      for (Index i = b0; i < b1; ++i) order[start[cell[i]] + mine[cell[i]]++] = i;
+      for (Index i = b0; i < b1; ++i) {
+        const Index c = cell[i], k = start[c] + mine[c]++;
+        order[k] = i;
+        sorted[k] = c;
+      }
     }
   }
-  if (!cells_in_order) return;
-  // Sorted, the cells are the runs of cell_start_.
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (std::size_t c = 0; c < n_cells; ++c)
-    std::fill(cell + start[c], cell + start[c + 1], static_cast<Index>(c));
+  return Reorder::kOrder;
+}
+
+// The particles are in the last sort's order and cell_in_ holds their cells
+// now (the grid unchanged). The stable counting sort would keep every
+// particle whose cell did not change (a stayer) in its order, and put each
+// other one (a mover) among them by its cell and then its index: before the
+// stayers of its new cell if it comes from below their range, after them if
+// from above. So the stayers move as blocks, shifted by the movers taken out
+// and put in before them, and the cell ranges change only between each
+// mover's old cell and its new one.
+bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
+  moves_.clear();
+  if (skip_ > 0) {  // it gave up lately: not before this many sorts have gone by
+    --skip_;
+    return false;
+  }
+  const Index* now = cell_in_.data();
+  const Index* was = cell_of_.data();
+  // The scratch at its largest from the start: no allocation in later steps.
+  const std::size_t most = static_cast<std::size_t>(n / 16) + 1;
+  if (movers_.capacity() < most) {
+    movers_.reserve(most);
+    inserts_.reserve(most);
+    moves_.reserve(3 * most + 1);  // a block of stayers before and after each mover, and it
+  }
+  movers_.clear();
+  Index k = 0;
+#if defined(__AVX512F__)
+  if constexpr (sizeof(Index) == 4) {
+    for (; k + 16 <= n; k += 16) {
+      const __m512i a = _mm512_loadu_si512(now + k), b = _mm512_loadu_si512(was + k);
+      for (unsigned m = _mm512_cmpneq_epi32_mask(a, b); m != 0; m &= m - 1)
+        movers_.push_back(k + static_cast<Index>(__builtin_ctz(m)));
+    }
+  }
+#endif
+  for (; k < n; ++k)
+    if (now[k] != was[k]) movers_.push_back(k);
+  const std::size_t m = movers_.size();
+  if (m == 0) {  // the order, the ranges and cell_of_ hold as they are
+    failures_ = 0;
+    return true;
+  }
+  // Where the counting sort costs less: many movers, or movers that shift
+  // many particles (each shifts those between its old place and its new one
+  // by one; at 10k particles in the dam break about 60 each, at 1M over a
+  // thousand): moving half the particles twice costs about what the counting
+  // sort's permutation does. Then the next tries wait 1, 3 or 7 sorts.
+  auto give_up = [&] {
+    moves_.clear();
+    failures_ = std::min(failures_ + 1, 3);
+    skip_ = (1 << failures_) - 1;
+    return false;
+  };
+  if (m >= most) return give_up();
+  Index* start = cell_start_.data();
+  inserts_.clear();
+  std::int64_t span = 0;  // cells crossed
+  for (const Index i : movers_) {
+    const Index c = now[i];
+    inserts_.push_back({c, i, i < start[c] ? start[c] : start[c + 1]});
+    span += std::abs(c - was[i]);
+  }
+  std::sort(inserts_.begin(), inserts_.end(), [](const Insert& a, const Insert& b) {
+    return a.cell < b.cell || (a.cell == b.cell && a.index < b.index);
+  });
+  // Walk the input in order: the stayers before each event go on as a block,
+  // the movers put in before place e come before it, a mover at e leaves.
+  Index next = 0, out = 0;  // the next input place, the next output place
+  std::int64_t moved = 0;
+  auto stayers_to = [&](Index e) {
+    if (e > next) {
+      if (out != next) {
+        moves_.push_back({next, out, e - next});
+        moved += e - next;
+      }
+      out += e - next;
+    }
+    next = e;
+  };
+  std::size_t r = 0, q = 0;
+  while (r < m || q < m) {
+    const Index e = std::min(r < m ? movers_[r] : n, q < m ? inserts_[q].before : n);
+    stayers_to(e);
+    for (; q < m && inserts_[q].before == e; ++q, ++out)
+      if (inserts_[q].index != out) {
+        moves_.push_back({inserts_[q].index, out, 1});
+        ++moved;
+      }
+    if (r < m && movers_[r] == e) {
+      ++next;
+      ++r;
+    }
+  }
+  stayers_to(n);
+  if (out != n) throw std::logic_error("resort: the moves do not place every particle");
+  if (2 * moved > n) return give_up();  // (and the particles' spare buffers hold n / 2)
+  // start[c] counts the particles in cells below c: each mover changes it
+  // between its old cell and its new one, cell by cell where that is short,
+  // else by a running sum over all cells.
+  const std::size_t n_cells = cell_start_.size() - 1;
+  if (span <= static_cast<std::int64_t>(n_cells)) {
+    for (const Index i : movers_) {
+      const Index a = was[i], b = now[i];
+      for (Index c = a + 1; c <= b; ++c) --start[c];
+      for (Index c = b + 1; c <= a; ++c) ++start[c];
+    }
+  } else {
+    cursor_.assign(n_cells + 1, 0);  // how start[c]'s change differs from start[c - 1]'s
+    for (const Index i : movers_) {
+      --cursor_[was[i] + 1];
+      ++cursor_[now[i] + 1];
+    }
+    Index change = 0;
+    for (std::size_t c = 1; c <= n_cells; ++c) {
+      change += cursor_[c];
+      start[c] += change;
+    }
+  }
+  // The cells in the new order (the last sort's permutation, of n entries,
+  // is the scratch).
+  apply_moves(moves_, cell_in_.data(), scratch.data());
+  cell_of_.swap(cell_in_);
+  failures_ = 0;
+  return true;
 }
 
 }  // namespace sphfluid

@@ -12,6 +12,7 @@
 #include <immintrin.h>
 #endif
 
+#include "moves.hpp"
 #include "parallel.hpp"
 #include "periodic.hpp"
 #include "types.hpp"
@@ -20,16 +21,22 @@ namespace sphfluid {
 
 class CellGrid {
  public:
-  // Bin the n positions into cells of size `cell` and return in `order` the
-  // stable cell-major permutation (order[k] = index of the k-th particle).
-  // The sort uses the threads from kParallelMin particles on (parallel.hpp).
+  // How sort() reorders the particles.
+  enum class Reorder { kNone, kMoves, kOrder };
 
+  // Bins the n positions into cells of size `cell_size` for the stable
+  // cell-major order: particles by cell, those of a cell in their input order.
+  // Returns kOrder with the permutation in `order` (order[k] = index of the
+  // k-th particle), or, where `in_last_order` says the particles are those
+  // of the last sort in its order (moved since, nothing else) and the grid is
+  // the same, kNone if no particle changed cell, or kMoves with moves() that
+  // reorder them, when few did (`order` is then left as it was).
+  // The sort uses the threads from kParallelMin particles on (parallel.hpp).
   // Along box's periodic axes the positions must lie in the box. The cells are
-  // made 1e-8 larger than cell_size (see grid.cpp). Without cells_in_order the
-  // per-particle cells are left in input order (the neighbour lists below
-  // need them sorted; the cell clusters read the cell ranges alone).
-  void sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
-            const PeriodicBox& box = PeriodicBox(), bool cells_in_order = true);
+  // made 1e-8 larger than cell_size (see grid.cpp).
+  Reorder sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
+               const PeriodicBox& box = PeriodicBox(), bool in_last_order = false);
+  const std::vector<Move>& moves() const { return moves_; }
 
   // After the particles were permuted by `order`: neighbour list for radius h.
   // visit(i, nbrs, count, sum) runs right after particle i's list is built,
@@ -152,7 +159,10 @@ class CellGrid {
   }
 
   std::size_t bytes() const {
-    return (cell_start_.capacity() + cell_of_.capacity() + cursor_.capacity()) * sizeof(Index);
+    return (cell_start_.capacity() + cell_of_.capacity() + cell_in_.capacity() +
+            cursor_.capacity() + movers_.capacity()) *
+               sizeof(Index) +
+           inserts_.capacity() * sizeof(Insert) + moves_.capacity() * sizeof(Move);
   }
   Index nx() const { return nx_; }
   Index ny() const { return ny_; }
@@ -299,8 +309,25 @@ class CellGrid {
   Vec2 lo_ = Vec2::Zero();
   Real width_ = 0, inv_width_ = 0;
   std::vector<Index> cell_start_;  // n_cells + 1 (last entry is the guard)
-  std::vector<Index> cell_of_;     // cell of each particle, in sorted order (cells_in_order)
+  // Where few particles changed cell since the last sort (same n and grid):
+  // moves that put them in place, or false where too many did; scratch holds
+  // n entries.
+  bool resort(Index n, std::vector<Index>& scratch);
+
+  std::vector<Index> cell_of_;     // cell of each particle, in sorted order
+  std::vector<Index> cell_in_;     // cell of each particle, in input order
   std::vector<Index> cursor_;  // scatter position per cell (per thread and cell)
+  Index sorted_n_ = -1;        // particles of the last sort (-1: none yet)
+  // resort's scratch: the particles that changed cell (by input index), where
+  // each goes (its cell, index, and the input place it goes before), and the
+  // moves.
+  struct Insert {
+    Index cell, index, before;
+  };
+  int failures_ = 0, skip_ = 0;  // resort's give-ups in a row; sorts it still waits
+  std::vector<Index> movers_;
+  std::vector<Insert> inserts_;
+  std::vector<Move> moves_;
 };
 
 }  // namespace sphfluid

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -49,6 +51,60 @@ inline Share share_of(Index n, int t, int parts) {
   return {static_cast<Index>(std::int64_t(n) * t / parts),
           static_cast<Index>(std::int64_t(n) * (t + 1) / parts)};
 }
+
+// Cuts for a loop whose cost per item is uneven but changes slowly from one
+// call to the next (the wall ghosts: a particle near a wall costs several
+// times one away from them): each thread times its range, and the next call
+// moves the cuts halfway towards where those times say the cost splits
+// evenly. Only the work's split follows the clock, never a result.
+class Balance {
+ public:
+  // The threads' ranges of n items for this call: [cut(t), cut(t + 1)).
+  void begin(Index n, int threads) {
+    if (static_cast<int>(frac_.size()) != threads + 1) {
+      frac_.resize(threads + 1);
+      for (int t = 0; t <= threads; ++t) frac_[t] = static_cast<double>(t) / threads;
+    }
+    seconds_.assign(threads, 0.0);
+    cuts_.resize(threads + 1);
+    for (int t = 0; t <= threads; ++t)
+      cuts_[t] = static_cast<Index>(std::llround(frac_[t] * static_cast<double>(n)));
+    cuts_[threads] = n;
+  }
+  Index cut(int t) const { return cuts_[t]; }
+  // Thread t's time on its range, from inside the parallel region.
+  void record(int t, double seconds) { seconds_[t] = seconds; }
+  // After the region: where the cost splits evenly, if every item of a range
+  // cost the same; each range keeps at least a twentieth of its even share.
+  void end() {
+    const int nt = static_cast<int>(seconds_.size());
+    double total = 0;
+    for (double s : seconds_) total += s;
+    if (nt < 2 || !(total > 0)) return;
+    std::vector<double>& target = target_;
+    target.assign(nt + 1, 0.0);
+    target[nt] = 1;
+    int r = 0;
+    double before = 0;  // cost of the ranges before r
+    for (int t = 1; t < nt; ++t) {
+      const double goal = total * t / nt;
+      while (r < nt - 1 && before + seconds_[r] < goal) before += seconds_[r++];
+      const double width = frac_[r + 1] - frac_[r];
+      const double part = seconds_[r] > 0 ? (goal - before) / seconds_[r] : 0.5;
+      target[t] = frac_[r] + width * std::clamp(part, 0.0, 1.0);
+    }
+    const double least = 0.05 / nt;
+    for (int t = 1; t < nt; ++t)
+      frac_[t] = std::clamp(0.5 * (frac_[t] + target[t]), frac_[t - 1] + least,
+                            1.0 - (nt - t) * least);
+  }
+
+ private:
+  std::vector<double> frac_;     // the cuts as fractions of n
+  std::vector<double> seconds_;  // each thread's time on its range, last call
+  std::vector<double> target_;   // end()'s scratch
+  std::vector<Index> cuts_;
+};
 
 inline int thread_rank() {
 #ifdef _OPENMP
@@ -188,6 +244,14 @@ class Csr {
     build_rows(n, threads, 1,
                [&](Index lo, Index hi, Chunk<T>& local) { fill(lo, hi, start_.data(), local); });
   }
+  // The same with the threads' rows cut by `balance` (begun for n rows and
+  // this many threads), each thread's time recorded in it.
+  template <class Fill>
+  void build_ranges(Index n, int threads, Balance& balance, Fill fill) {
+    build_rows(n, threads, 1,
+               [&](Index lo, Index hi, Chunk<T>& local) { fill(lo, hi, start_.data(), local); },
+               &balance);
+  }
 
   // The same over blocks of `block` rows, each built whole by one thread, in
   // order: emit(i, out, lo, hi) with [lo, hi) the block of row i.
@@ -208,7 +272,7 @@ class Csr {
   // rows(lo, hi, out) fills the rows [lo, hi) of one thread, whose first row is
   // a multiple of align.
   template <class Rows>
-  void build_rows(Index n, int threads, Index align, Rows rows) {
+  void build_rows(Index n, int threads, Index align, Rows rows, Balance* balance = nullptr) {
     const int nt_max = resolve_threads(threads);
     start_.resize(static_cast<std::size_t>(n) + 1);
     if (static_cast<int>(chunks_.size()) < nt_max) chunks_.resize(nt_max);
@@ -219,14 +283,22 @@ class Csr {
     {
       const int t = thread_rank(), nt = thread_team_size();
       const std::int64_t blocks = (std::int64_t(n) + align - 1) / align;
-      const Index lo = static_cast<Index>(std::min<std::int64_t>(n, blocks * t / nt * align));
-      const Index hi = static_cast<Index>(std::min<std::int64_t>(n, blocks * (t + 1) / nt * align));
+      Index lo = static_cast<Index>(std::min<std::int64_t>(n, blocks * t / nt * align));
+      Index hi = static_cast<Index>(std::min<std::int64_t>(n, blocks * (t + 1) / nt * align));
+      if (balance && nt == nt_max) {
+        lo = balance->cut(t);
+        hi = balance->cut(t + 1);
+      }
       lo_[t] = lo;
       // Work on a buffer whose header lives on this thread's stack: the headers
       // in chunks_ share cache lines, and appending writes them constantly.
       Chunk<T> local = std::move(chunks_[t]);
       local.clear();
+      const auto began = std::chrono::steady_clock::now();
       rows(lo, hi, local);
+      if (balance && nt == nt_max)
+        balance->record(t, std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                                         began).count());
       overflow = local.size() > static_cast<std::size_t>(INT32_MAX);
       chunks_[t] = std::move(local);  // keeps its capacity for the next build
     }

@@ -109,6 +109,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   check_state(positions, velocities, {});
   const Index n = size(), k = static_cast<Index>(positions.size());
   require(std::int64_t(n) + k < INT32_MAX, "too many particles");
+  in_sort_order_ = false;
   Id next = 0;
   for (Index i = 0; i < n; ++i) next = std::max(next, ps_.id[i] + 1);
   ps_.resize(n + k);
@@ -125,12 +126,31 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
 
 // Wall ghosts of every particle, found once per step and reused by every pass.
 void Solver::find_ghosts(bool interior_only) {
+  find_ghosts(interior_only, false, [](Index, Index) {});
+}
+
+// The same; with `density`, each particle's ghosts' share of its density
+// (seed 4.1, as finish_density sums it) is added to rho[] as they are found,
+// and then(first, last) runs on each thread's range of particles once their
+// ghosts are found, in the same parallel region.
+template <class Then>
+void Solver::find_ghosts(bool interior_only, bool density, Then then) {
   const Vec2* x = ps_.x.data();
+  Real* rho = ps_.rho.data();
+  const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
   // Returns the squared distance from x[i] to the nearest wall of its lookup cell.
   auto emit = [&](Index i, Chunk<Vec2>& out) {
-    return walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
+    const std::size_t before = out.size();
+    const Real d2 = walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
+    if (density && out.size() != before) {
+      Real g = 0;
+      for (const Vec2* r = out.begin() + before; r != out.end(); ++r)
+        g += kern_.w_poly6(r->squaredNorm());
+      rho[i] += m_ghost * g;
+    }
+    return d2;
   };
 #if defined(__AVX512F__) && defined(__AVX512VL__)
   if constexpr (kVector8 && sizeof(Index) == 4) {
@@ -144,8 +164,9 @@ void Solver::find_ghosts(bool interior_only) {
     float* clear2 = wall_clear2_.data();
     auto clearance = [&](Real d2) { return static_cast<float>(walls_.safe_path2(d2)); };
     const float far2 = clearance(params_.h * params_.h);
-    ghosts_.build_ranges(size(), team(), [&](Index lo, Index hi, Index* start,
-                                             Chunk<Vec2>& out) {
+    ghost_balance_.begin(size(), resolve_threads(team()));
+    ghosts_.build_ranges(size(), team(), ghost_balance_, [&](Index lo, Index hi, Index* start,
+                                                             Chunk<Vec2>& out) {
       Index i = lo;
       for (; i + 8 <= hi; i += 8) {
         const double* p = reinterpret_cast<const double*>(x + i);
@@ -166,12 +187,22 @@ void Solver::find_ghosts(bool interior_only) {
         start[i] = static_cast<Index>(out.size());
         clear2[i] = clearance(emit(i, out));
       }
+      then(lo, hi);
     });
+    ghost_balance_.end();
     wall_clear_fresh_ = true;
     return;
   }
 #endif
   ghosts_.build(size(), team(), emit);
+  if (!density) return;
+  const Index n = size();
+  const int nt = team();
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int t = 0; t < nt; ++t) {
+    const Share s = share_of(n, t, nt);
+    then(s.first, s.last);
+  }
 }
 
 void Solver::wrap_positions() {
@@ -200,6 +231,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
   wall_clear_fresh_ = false;  // until the next find_ghosts measures them anew
   check_state(positions, velocities, ids);
   const Index n = static_cast<Index>(positions.size());
+  in_sort_order_ = false;
   ps_.resize(n);
   for (Index i = 0; i < n; ++i) {
     ps_.x[i] = positions[i];
@@ -380,19 +412,40 @@ void Solver::evaluate_impl() {
   } else {
     sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Kernels::Poly6OfR2{&kern_});
   }
-  if constexpr ((F & kWalls) != 0) {
-    find_ghosts(false);
+  if constexpr (by_cells(F) && (F & kWalls) != 0) {
+    // The walls' share of the density with the ghost search, and the EOS in
+    // the same parallel region, each thread on its range once its ghosts are
+    // found.
+    inv_rho_.resize(size());
+    find_ghosts(false, true, [&](Index i0, Index i1) { finish_eos<F>(i0, i1); });
     mark(kGhosts);
+  } else {
+    if constexpr ((F & kWalls) != 0) {
+      find_ghosts(false);
+      mark(kGhosts);
+    }
+    compute_density<F>();
+    mark(kDensity);
   }
-  compute_density<F>();
-  mark(kDensity);
   compute_accelerations<F>();
   mark(kForces);
 }
 
-void Solver::sort_by_cell(bool cells_in_order) {
-  grid_.sort(ps_.x.data(), size(), params_.h, team(), order_, box_, cells_in_order);
-  ps_.permute_state(order_, team());
+void Solver::sort_by_cell() {
+  const CellGrid::Reorder how =
+      grid_.sort(ps_.x.data(), size(), params_.h, team(), order_, box_, in_sort_order_);
+  switch (how) {
+    case CellGrid::Reorder::kNone:
+      break;
+    case CellGrid::Reorder::kMoves:
+      ps_.apply_moves(grid_.moves(), order_, team());
+      break;
+    case CellGrid::Reorder::kOrder:
+      ps_.permute_state(order_, team());
+      break;
+  }
+  ++sort_counts_[static_cast<int>(how)];
+  in_sort_order_ = true;
   mark(kSort);
 }
 
@@ -439,7 +492,7 @@ void Solver::sort_and_sum_density_by_cells(KernelOfR2 w) {
 #if SPHFLUID_CELL_PAIRS
   if constexpr (CellPairs::kAvailable) {
     const Index n = size();
-    sort_by_cell(false);  // the cell ranges alone
+    sort_by_cell();
     half_lists_ = false;
     cell_pairs_.make_blocks(grid_, n, pair_blocks());
     if (float_pairs_) floats_.resize(n);  // filled with the EOS (finish_density)
@@ -497,15 +550,12 @@ std::int64_t Solver::neighbour_pairs() const {
 
 // Seed eq. 10: the wall ghosts' part of the density (4.1), then the EOS (eq. 15),
 // for the particles [i0, i1), on the calling thread. The ghosts' part first,
-// for the particles that have ghosts; then the EOS for all, in a loop the
-// compiler vectorises.
+// for the particles that have ghosts (find_ghosts sums it itself where it
+// is asked to); then the EOS for all.
 template <unsigned F>
 void Solver::finish_density(Index i0, Index i1) {
-  Real* rho = ps_.rho.data();
-  Real* p = ps_.p.data();
-  Real* inv_rho = inv_rho_.data();
-  const Real k = params_.k, rho0 = params_.rho0;
   if constexpr ((F & kWalls) != 0) {
+    Real* rho = ps_.rho.data();
     const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
     ghosts_.for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
       Real g = 0;
@@ -513,6 +563,17 @@ void Solver::finish_density(Index i0, Index i1) {
       rho[i] += m_ghost * g;
     });
   }
+  finish_eos<F>(i0, i1);
+}
+
+// The EOS (eq. 15) of the particles [i0, i1) whose densities are complete, in
+// a loop the compiler vectorises; with the float pair forces also their data.
+template <unsigned F>
+void Solver::finish_eos(Index i0, Index i1) {
+  const Real* rho = ps_.rho.data();
+  Real* p = ps_.p.data();
+  Real* inv_rho = inv_rho_.data();
+  const Real k = params_.k, rho0 = params_.rho0;
   if constexpr (by_cells(F)) {
     if (float_pairs_) {  // and the float pair forces' data (SeedFloats)
 #if SPHFLUID_CELL_PAIRS
@@ -996,6 +1057,7 @@ void Solver::remove_outside_domain() {
     }
   energy_removed_ += Real(0.5) * params_.mass * v2_out;
   wall_clear_fresh_ = false;  // the clearances are by storage index
+  in_sort_order_ = false;     // and so is the grid's last sort
   ps_.compact(keep_);
   removed_ += removed;
 }

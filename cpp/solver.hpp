@@ -103,6 +103,10 @@ class Solver {
   // particles (parallel.hpp).
   int team() const { return threads_for(size(), threads_); }
   const std::array<double, kNumPhases>& phase_seconds() const { return phase_seconds_; }
+  // Sorts since the solver was made, by what they did to the order: none
+  // changed, few particles moved in place, or a full permutation
+  // (CellGrid::Reorder).
+  const std::array<std::int64_t, 3>& sort_counts() const { return sort_counts_; }
   void reset_phase_seconds() { phase_seconds_.fill(0.0); }
   // Heap bytes held by the solver's arrays (capacity included), by part.
   std::vector<std::pair<std::string, std::size_t>> memory_bytes() const {
@@ -155,15 +159,15 @@ class Solver {
   static constexpr bool wcsph_by_cells(unsigned features) {
     return CellPairs::kAvailable && (features & kPeriodic) == 0;
   }
-  // The particles into cell order (the sort phase); the grid keeps each
-  // particle's cell in that order only if asked (the neighbour lists need it).
-  void sort_by_cell(bool cells_in_order = true);
+  // The particles into cell order (the sort phase).
+  void sort_by_cell();
   template <class KernelOfR2> void sort_and_sum_density_by_cells(KernelOfR2 w);
   template <bool Viscosity, class Finish> void seed_forces_by_cells(Finish finish);
   // The per-particle ends of the seed's density and force passes, for the
   // particles [i0, i1) on the calling thread: per thread after the pairs, or
   // (the forces by cells) per pair block as soon as its sums are complete.
   template <unsigned F> void finish_density(Index i0, Index i1);
+  template <unsigned F> void finish_eos(Index i0, Index i1);
   template <unsigned F> void finish_accelerations(Index i0, Index i1);
   template <unsigned F>
   void add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
@@ -183,6 +187,7 @@ class Solver {
                    const std::vector<Id>& ids) const;
   void select_step();
   void find_ghosts(bool interior_only);
+  template <class Then> void find_ghosts(bool interior_only, bool density, Then then);
 
   using StepFn = void (Solver::*)(Real, Real);
   using EvalFn = void (Solver::*)();
@@ -201,6 +206,10 @@ class Solver {
   ParticleSet ps_;
   CellGrid grid_;
   std::vector<Index> order_;
+  // The particles are in the order of the grid's last sort, only moved since
+  // (the next sort may then move just those that changed cell).
+  bool in_sort_order_ = false;
+  std::array<std::int64_t, 3> sort_counts_{};  // sorts by CellGrid::Reorder
   Csr<Index> nbrs_;
   CellPairs cell_pairs_;
   // The seed's pair forces in float (SimParams::float_pairs, where the cell
@@ -209,6 +218,7 @@ class Solver {
   SeedFloats floats_;
   std::int64_t cell_pair_count_ = -1;  // pairs of the last evaluation by cells, else -1
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
+  Balance ghost_balance_;     // the threads' shares of the ghost search (and the EOS)
   std::vector<Real> inv_rho_;     // 1 / rho, per particle, from the density pass
   std::vector<Real> p_over_rho2_; // wcsph: p / rho^2
   std::vector<Vec2> normal_;      // with tension, pairs once: the colour field's gradient

@@ -218,7 +218,10 @@ def table(rows: list[dict], command: str) -> str:
         phases = " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
         lines.append(f"| {thread_label(r)} | {pairs_label(r)} | {phases} |")
     lines += ["", "Speed-up: against the first row. Pairs: the precision of the seed's pair "
-              "forces (`solver.pair_precision`; README, \"Precision\")."]
+              "forces (`solver.pair_precision`; README, \"Precision\"). Phases: where the "
+              "seed's pairs run by cell clusters with walls, the ghosts column holds the walls' "
+              "share of the density and the equation of state too (found in one parallel "
+              "region), and density is empty."]
     if any(thread_label(r) != str(r["threads"]) for r in rows):
         lines += ["", "\"(1 in use)\": below 1,000 particles the step runs on one thread "
                   "whatever is asked (`Simulation.threads_in_use`)."]
