@@ -19,41 +19,52 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
   cell_size *= 1 + 1e-8;
   const int nt = threads_for(n, threads);
   Real lx = 0, ly = 0, hx = 0, hy = 0;
-  if (n > 0) {
+  // The integration's look ahead (set_ahead) gives the bounding box, and the
+  // cells below where the grid stays the same.
+  const bool ahead = ahead_n_ == n && !box.any();
+  ahead_n_ = -1;
+  if (ahead) {
+    lx = ahead_lo_.x();
+    ly = ahead_lo_.y();
+    hx = ahead_hi_.x();
+    hy = ahead_hi_.y();
+  } else if (n > 0) {
     lx = hx = x[0].x();
     ly = hy = x[0].y();
   }
-  // The bounding box, each thread over its share (std::min's rule: a NaN
-  // coordinate is passed over), eight points at a time where AVX-512 runs.
+  if (!ahead) {
+    // The bounding box, each thread over its share (std::min's rule: a NaN
+    // coordinate is passed over), eight points at a time where AVX-512 runs.
 #pragma omp parallel num_threads(nt) reduction(min : lx, ly) reduction(max : hx, hy)
-  {
-    const Share mine = share_of(n, thread_rank(), thread_team_size());
-    Index i = mine.first;
-    const Index b1 = mine.last;
+    {
+      const Share mine = share_of(n, thread_rank(), thread_team_size());
+      Index i = mine.first;
+      const Index b1 = mine.last;
 #if defined(__AVX512F__)
-    if constexpr (kVector8) {
-      __m512d vlx = _mm512_set1_pd(lx), vly = _mm512_set1_pd(ly);
-      __m512d vhx = _mm512_set1_pd(hx), vhy = _mm512_set1_pd(hy);
-      for (; i + 8 <= b1; i += 8) {
-        const double* p = reinterpret_cast<const double*>(x + i);
-        const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
-        const __m512d px = x_of8(a, b), py = y_of8(a, b);
-        vlx = _mm512_min_pd(px, vlx);  // px < vlx ? px : vlx, as std::min(vlx, px)
-        vly = _mm512_min_pd(py, vly);
-        vhx = _mm512_max_pd(px, vhx);
-        vhy = _mm512_max_pd(py, vhy);
+      if constexpr (kVector8) {
+        __m512d vlx = _mm512_set1_pd(lx), vly = _mm512_set1_pd(ly);
+        __m512d vhx = _mm512_set1_pd(hx), vhy = _mm512_set1_pd(hy);
+        for (; i + 8 <= b1; i += 8) {
+          const double* p = reinterpret_cast<const double*>(x + i);
+          const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
+          const __m512d px = x_of8(a, b), py = y_of8(a, b);
+          vlx = _mm512_min_pd(px, vlx);  // px < vlx ? px : vlx, as std::min(vlx, px)
+          vly = _mm512_min_pd(py, vly);
+          vhx = _mm512_max_pd(px, vhx);
+          vhy = _mm512_max_pd(py, vhy);
+        }
+        lx = _mm512_reduce_min_pd(vlx);
+        ly = _mm512_reduce_min_pd(vly);
+        hx = _mm512_reduce_max_pd(vhx);
+        hy = _mm512_reduce_max_pd(vhy);
       }
-      lx = _mm512_reduce_min_pd(vlx);
-      ly = _mm512_reduce_min_pd(vly);
-      hx = _mm512_reduce_max_pd(vhx);
-      hy = _mm512_reduce_max_pd(vhy);
-    }
 #endif
-    for (; i < b1; ++i) {
-      lx = std::min(lx, x[i].x());
-      ly = std::min(ly, x[i].y());
-      hx = std::max(hx, x[i].x());
-      hy = std::max(hy, x[i].y());
+      for (; i < b1; ++i) {
+        lx = std::min(lx, x[i].x());
+        ly = std::min(ly, x[i].y());
+        hx = std::max(hx, x[i].x());
+        hy = std::max(hy, x[i].y());
+      }
     }
   }
   const Vec2 hi(hx, hy);
@@ -107,21 +118,12 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
     Index i = b0;
 #if defined(__AVX512F__)
     if constexpr (kVector8 && sizeof(Index) == 4) {
-      const __m512d lox = _mm512_set1_pd(lo.x()), loy = _mm512_set1_pd(lo.y());
-      const __m512d invx = _mm512_set1_pd(inv.x()), invy = _mm512_set1_pd(inv.y());
-      const __m256i zero = _mm256_setzero_si256(), width = _mm256_set1_epi32(nx);
-      const __m256i last_x = _mm256_set1_epi32(nx - 1), last_y = _mm256_set1_epi32(ny - 1);
+      const Cells8 cells8(lo, inv, nx, ny);
       for (; i + 8 <= b1; i += 8) {
         const double* p = reinterpret_cast<const double*>(x + i);
         const __m512d a = _mm512_loadu_pd(p), b = _mm512_loadu_pd(p + 8);
-        const __m256i tx =
-            _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(x_of8(a, b), lox), invx));
-        const __m256i ty =
-            _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(y_of8(a, b), loy), invy));
-        const __m256i ix = _mm256_min_epi32(_mm256_max_epi32(tx, zero), last_x);
-        const __m256i iy = _mm256_min_epi32(_mm256_max_epi32(ty, zero), last_y);
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell + i),
-                            _mm256_add_epi32(_mm256_mullo_epi32(iy, width), ix));
+                            cells8(x_of8(a, b), y_of8(a, b)));
       }
     }
 #endif
@@ -131,7 +133,9 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
     // The particles in the last sort's order: where few changed cell, they
     // are moved into place and the cell ranges adjusted (resort); else the
     // counting sort below, with these cells.
-    if (nt == 1) {
+    if (ahead) {
+      // cell_in_ holds them (ahead_cells)
+    } else if (nt == 1) {
       cells_of(0, n);
     } else {
 #pragma omp parallel for schedule(static) num_threads(nt)

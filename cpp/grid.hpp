@@ -38,6 +38,50 @@ class CellGrid {
                const PeriodicBox& box = PeriodicBox(), bool in_last_order = false);
   const std::vector<Move>& moves() const { return moves_; }
 
+#if defined(__AVX512F__)
+  // The cells of eight points on a grid with corner lo, inverse cell widths
+  // inv and nx x ny cells, as sort() computes them: truncation, then the
+  // clamps.
+  struct Cells8 {
+    __m512d lox, loy, invx, invy;
+    __m256i width, last_x, last_y;
+    Cells8(const Vec2& lo, const Vec2& inv, Index nx, Index ny)
+        : lox(_mm512_set1_pd(lo.x())),
+          loy(_mm512_set1_pd(lo.y())),
+          invx(_mm512_set1_pd(inv.x())),
+          invy(_mm512_set1_pd(inv.y())),
+          width(_mm256_set1_epi32(nx)),
+          last_x(_mm256_set1_epi32(nx - 1)),
+          last_y(_mm256_set1_epi32(ny - 1)) {}
+    __m256i operator()(__m512d x, __m512d y) const {
+      const __m256i zero = _mm256_setzero_si256();
+      const __m256i tx = _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(x, lox), invx));
+      const __m256i ty = _mm512_cvttpd_epi32(_mm512_mul_pd(_mm512_sub_pd(y, loy), invy));
+      const __m256i ix = _mm256_min_epi32(_mm256_max_epi32(tx, zero), last_x);
+      const __m256i iy = _mm256_min_epi32(_mm256_max_epi32(ty, zero), last_y);
+      return _mm256_add_epi32(_mm256_mullo_epi32(iy, width), ix);
+    }
+  };
+  // This grid's (a grid over no periodic axis).
+  Cells8 cells8() const { return Cells8(lo_, Vec2(inv_width_, inv_width_), nx_, ny_); }
+#endif
+  // A look ahead for the next sort, from the integration that moves the
+  // particles (over no periodic axis): the new positions' bounding box and,
+  // written into ahead_cells(n), their cells on this grid. The next sort of n
+  // particles takes the box, and the cells if the grid stays the same (a
+  // particle outside it changes the box, so none was clamped). Anything else
+  // that moves or reorders the particles drops it.
+  Index* ahead_cells(Index n) {
+    cell_in_.resize(n);
+    return cell_in_.data();
+  }
+  void set_ahead(Index n, const Vec2& lo, const Vec2& hi) {
+    ahead_n_ = n;
+    ahead_lo_ = lo;
+    ahead_hi_ = hi;
+  }
+  void drop_ahead() { ahead_n_ = -1; }
+
   // After the particles were permuted by `order`: neighbour list for radius h.
   // visit(i, nbrs, count, sum) runs right after particle i's list is built,
   // with sum = the sum of w(|r_ij|^2) over its neighbours, taken in the same
@@ -318,6 +362,8 @@ class CellGrid {
   std::vector<Index> cell_in_;     // cell of each particle, in input order
   std::vector<Index> cursor_;  // scatter position per cell (per thread and cell)
   Index sorted_n_ = -1;        // particles of the last sort (-1: none yet)
+  Index ahead_n_ = -1;         // set_ahead's particles (-1: no look ahead)
+  Vec2 ahead_lo_ = Vec2::Zero(), ahead_hi_ = Vec2::Zero();
   // resort's scratch: the particles that changed cell (by input index), where
   // each goes (its cell, index, and the input place it goes before), and the
   // moves.

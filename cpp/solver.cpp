@@ -110,6 +110,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   const Index n = size(), k = static_cast<Index>(positions.size());
   require(std::int64_t(n) + k < INT32_MAX, "too many particles");
   in_sort_order_ = false;
+  grid_.drop_ahead();
   Id next = 0;
   for (Index i = 0; i < n; ++i) next = std::max(next, ps_.id[i] + 1);
   ps_.resize(n + k);
@@ -232,6 +233,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
   check_state(positions, velocities, ids);
   const Index n = static_cast<Index>(positions.size());
   in_sort_order_ = false;
+  grid_.drop_ahead();
   ps_.resize(n);
   for (Index i = 0; i < n; ++i) {
     ps_.x[i] = positions[i];
@@ -397,7 +399,7 @@ void Solver::step_impl(Real dt, Real dt_cap) {
   dt = step_size(dt, dt_cap);
   integrate<F>(dt, dt);
   mark(kIntegrate);
-  remove_outside_domain();
+  if (!all_inside_) remove_outside_domain();
   mark(kDomain);
   time_ += dt;
   ++step_count_;
@@ -866,80 +868,114 @@ void Solver::integrate(Real dt, Real kick) {
     [[maybe_unused]] const bool clear_known =
         clear_fresh && wall_clear2_.size() >= static_cast<std::size_t>(n) + 8;
     [[maybe_unused]] const float* clear2_of = wall_clear2_.data();
-#pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
-    reduction(+ : v2_sum)
-    for (Index c = 0; c < chunks; ++c) {
-      const Index i0 = 8 * c, left = std::min<Index>(8, n - i0);
-      const unsigned doubles = 2u * static_cast<unsigned>(left);
-      const __mmask8 lanes = left == 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
-      const __mmask8 lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
-      const __mmask8 hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
-      // o: particles i0 .. i0 + 3; o8: i0 + 4 .. i0 + 7, kept inside the arrays
-      // when the chunk has no such particles (hi is then empty).
-      const std::size_t o = 2 * static_cast<std::size_t>(i0), o8 = hi ? o + 8 : o;
-      const __m512d x_lo = _mm512_maskz_loadu_pd(lo, xd + o);
-      const __m512d x_hi = _mm512_maskz_loadu_pd(hi, xd + o8);
-      // v + kick a, then x + dt v: the scalar loop's arithmetic as GCC compiles
-      // it (-ffp-contract=fast, the default with -std=gnu++17: one FMA each)
-      __m512d v_lo = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(lo, ad + o),
-                                     _mm512_maskz_loadu_pd(lo, vd + o));
-      __m512d v_hi = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(hi, ad + o8),
-                                     _mm512_maskz_loadu_pd(hi, vd + o8));
-      __m512d xn_lo = _mm512_fmadd_pd(dtv, v_lo, x_lo);
-      __m512d xn_hi = _mm512_fmadd_pd(dtv, v_hi, x_hi);
-      _mm512_mask_storeu_pd(xn + o, lo, xn_lo);
-      _mm512_mask_storeu_pd(xn + o8, hi, xn_hi);
-      _mm512_mask_storeu_pd(vn + o, lo, v_lo);
-      _mm512_mask_storeu_pd(vn + o8, hi, v_hi);
-      auto finite = [zero](__m512d u) {  // u - u is 0 unless u is inf or NaN
-        return _mm512_cmp_pd_mask(_mm512_sub_pd(u, u), zero, _CMP_EQ_OQ);
-      };
-      // The new positions and velocities as x and y lanes (again after any
-      // collision, which may change them).
-      __m512d to_x = x_of8(xn_lo, xn_hi), to_y = y_of8(xn_lo, xn_hi);
-      __m512d vx = x_of8(v_lo, v_hi), vy = y_of8(v_lo, v_hi);
-      if constexpr ((F & kWalls) != 0) {
-        const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(vx) & finite(vy);
-        const __m512d from_x = x_of8(x_lo, x_hi), from_y = y_of8(x_lo, x_hi);
-        __mmask8 may;
-        if (clear_known) {
-          // A path shorter than the particle's clearance meets no wall: every
-          // wall within h of it is in its lookup cell (none where no wall
-          // comes near, nor off the lookup grid), and the clearance is less
-          // than h / 2 and than the distance to the nearest of those walls.
-          const __m512d c2 = _mm512_cvtps_pd(_mm256_loadu_ps(clear2_of + i0));
-          const __m512d dx = _mm512_sub_pd(to_x, from_x), dy = _mm512_sub_pd(to_y, from_y);
-          const __mmask8 short_path =
-              _mm512_cmp_pd_mask(_mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)), c2, _CMP_LT_OQ);
-          may = ok & ~short_path;
-        } else {
-          may = walls_.may_hit8(ok, from_x, from_y, to_x, to_y);
-        }
-        if (may) {
-          for (unsigned k = 0; k < 8; ++k) {
-            if (!(may >> k & 1u)) continue;
-            const Index i = i0 + static_cast<Index>(k);
-            walls_.collide(x[i], x_new[i], v_new[i], e);
+    // Ahead of the next sort (CellGrid::set_ahead): the new positions'
+    // bounding box (std::min's rule: a NaN is passed over), which also tells
+    // whether any left the domain, and their cells on the current grid.
+    Index* const cells_ahead = n > 0 && grid_.n_cells() > 0 ? grid_.ahead_cells(n) : nullptr;
+    const CellGrid::Cells8 cells8 = grid_.cells8();
+    Real lx = inf, ly = inf, hx = -inf, hy = -inf;
+#pragma omp parallel num_threads(team()) reduction(|| : bad) reduction(+ : v2_sum) \
+    reduction(min : lx, ly) reduction(max : hx, hy)
+    {
+      __m512d vlx = _mm512_set1_pd(inf), vly = vlx, vhx = _mm512_set1_pd(-inf), vhy = vhx;
+#pragma omp for schedule(static)
+      for (Index c = 0; c < chunks; ++c) {
+        const Index i0 = 8 * c, left = std::min<Index>(8, n - i0);
+        const unsigned doubles = 2u * static_cast<unsigned>(left);
+        const __mmask8 lanes = left == 8 ? __mmask8(0xFF) : static_cast<__mmask8>((1u << left) - 1);
+        const __mmask8 lo = static_cast<__mmask8>((1u << std::min(doubles, 8u)) - 1);
+        const __mmask8 hi = static_cast<__mmask8>((1u << (doubles > 8 ? doubles - 8 : 0u)) - 1);
+        // o: particles i0 .. i0 + 3; o8: i0 + 4 .. i0 + 7, kept inside the arrays
+        // when the chunk has no such particles (hi is then empty).
+        const std::size_t o = 2 * static_cast<std::size_t>(i0), o8 = hi ? o + 8 : o;
+        const __m512d x_lo = _mm512_maskz_loadu_pd(lo, xd + o);
+        const __m512d x_hi = _mm512_maskz_loadu_pd(hi, xd + o8);
+        // v + kick a, then x + dt v: the scalar loop's arithmetic as GCC compiles
+        // it (-ffp-contract=fast, the default with -std=gnu++17: one FMA each)
+        __m512d v_lo = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(lo, ad + o),
+                                       _mm512_maskz_loadu_pd(lo, vd + o));
+        __m512d v_hi = _mm512_fmadd_pd(kv, _mm512_maskz_loadu_pd(hi, ad + o8),
+                                       _mm512_maskz_loadu_pd(hi, vd + o8));
+        __m512d xn_lo = _mm512_fmadd_pd(dtv, v_lo, x_lo);
+        __m512d xn_hi = _mm512_fmadd_pd(dtv, v_hi, x_hi);
+        _mm512_mask_storeu_pd(xn + o, lo, xn_lo);
+        _mm512_mask_storeu_pd(xn + o8, hi, xn_hi);
+        _mm512_mask_storeu_pd(vn + o, lo, v_lo);
+        _mm512_mask_storeu_pd(vn + o8, hi, v_hi);
+        auto finite = [zero](__m512d u) {  // u - u is 0 unless u is inf or NaN
+          return _mm512_cmp_pd_mask(_mm512_sub_pd(u, u), zero, _CMP_EQ_OQ);
+        };
+        // The new positions and velocities as x and y lanes (again after any
+        // collision, which may change them).
+        __m512d to_x = x_of8(xn_lo, xn_hi), to_y = y_of8(xn_lo, xn_hi);
+        __m512d vx = x_of8(v_lo, v_hi), vy = y_of8(v_lo, v_hi);
+        if constexpr ((F & kWalls) != 0) {
+          const __mmask8 ok = lanes & finite(to_x) & finite(to_y) & finite(vx) & finite(vy);
+          const __m512d from_x = x_of8(x_lo, x_hi), from_y = y_of8(x_lo, x_hi);
+          __mmask8 may;
+          if (clear_known) {
+            // A path shorter than the particle's clearance meets no wall: every
+            // wall within h of it is in its lookup cell (none where no wall
+            // comes near, nor off the lookup grid), and the clearance is less
+            // than h / 2 and than the distance to the nearest of those walls.
+            const __m512d c2 = _mm512_cvtps_pd(_mm256_loadu_ps(clear2_of + i0));
+            const __m512d dx = _mm512_sub_pd(to_x, from_x), dy = _mm512_sub_pd(to_y, from_y);
+            const __mmask8 short_path =
+                _mm512_cmp_pd_mask(_mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy)), c2, _CMP_LT_OQ);
+            may = ok & ~short_path;
+          } else {
+            may = walls_.may_hit8(ok, from_x, from_y, to_x, to_y);
           }
-          xn_lo = _mm512_maskz_loadu_pd(lo, xn + o);
-          xn_hi = _mm512_maskz_loadu_pd(hi, xn + o8);
-          v_lo = _mm512_maskz_loadu_pd(lo, vn + o);
-          v_hi = _mm512_maskz_loadu_pd(hi, vn + o8);
-          to_x = x_of8(xn_lo, xn_hi);
-          to_y = y_of8(xn_lo, xn_hi);
-          vx = x_of8(v_lo, v_hi);
-          vy = y_of8(v_lo, v_hi);
+          if (may) {
+            for (unsigned k = 0; k < 8; ++k) {
+              if (!(may >> k & 1u)) continue;
+              const Index i = i0 + static_cast<Index>(k);
+              walls_.collide(x[i], x_new[i], v_new[i], e);
+            }
+            xn_lo = _mm512_maskz_loadu_pd(lo, xn + o);
+            xn_hi = _mm512_maskz_loadu_pd(hi, xn + o8);
+            v_lo = _mm512_maskz_loadu_pd(lo, vn + o);
+            v_hi = _mm512_maskz_loadu_pd(hi, vn + o8);
+            to_x = x_of8(xn_lo, xn_hi);
+            to_y = y_of8(xn_lo, xn_hi);
+            vx = x_of8(v_lo, v_hi);
+            vy = y_of8(v_lo, v_hi);
+          }
         }
+        const __m512d v2 = _mm512_fmadd_pd(vx, vx, _mm512_mul_pd(vy, vy));
+        // Written so that NaN fails every comparison and so trips.
+        const __mmask8 fine = finite(to_x) & finite(to_y) &
+                              _mm512_cmp_pd_mask(v2, v2_cap, _CMP_LE_OQ) &
+                              _mm512_cmp_pd_mask(_mm512_maskz_loadu_pd(lanes, rho + i0), rho_cap,
+                                                 _CMP_LE_OQ);
+        bad = bad || (fine & lanes) != lanes;
+        v2_sum += _mm512_reduce_add_pd(_mm512_maskz_mov_pd(lanes, v2));
+        vlx = _mm512_mask_min_pd(vlx, lanes, to_x, vlx);
+        vly = _mm512_mask_min_pd(vly, lanes, to_y, vly);
+        vhx = _mm512_mask_max_pd(vhx, lanes, to_x, vhx);
+        vhy = _mm512_mask_max_pd(vhy, lanes, to_y, vhy);
+        if (cells_ahead) _mm256_mask_storeu_epi32(cells_ahead + i0, lanes, cells8(to_x, to_y));
       }
-      const __m512d v2 = _mm512_fmadd_pd(vx, vx, _mm512_mul_pd(vy, vy));
-      // Written so that NaN fails every comparison and so trips.
-      const __mmask8 fine = finite(to_x) & finite(to_y) &
-                            _mm512_cmp_pd_mask(v2, v2_cap, _CMP_LE_OQ) &
-                            _mm512_cmp_pd_mask(_mm512_maskz_loadu_pd(lanes, rho + i0), rho_cap,
-                                               _CMP_LE_OQ);
-      bad = bad || (fine & lanes) != lanes;
-      v2_sum += _mm512_reduce_add_pd(_mm512_maskz_mov_pd(lanes, v2));
+      lx = _mm512_reduce_min_pd(vlx);
+      ly = _mm512_reduce_min_pd(vly);
+      hx = _mm512_reduce_max_pd(vhx);
+      hy = _mm512_reduce_max_pd(vhy);
     }
+    const Real kinetic = 0.5 * params_.mass * v2_sum;
+    if (bad || (guard &&
+                !(kinetic + energy_removed_ <= params_.guard_energy_factor * energy_budget_)))
+      trip(dt, x_new, v_new, rho, kinetic);
+    ps_.x.commit_write();
+    ps_.v.commit_write();
+    if (cells_ahead) {
+      grid_.set_ahead(n, Vec2(lx, ly), Vec2(hx, hy));
+    } else {
+      grid_.drop_ahead();
+    }
+    // (all finite here: the guard trips on any non-finite position)
+    const Vec2 lo = params_.domain_min, hi = params_.domain_max;
+    all_inside_ = lx >= lo.x() && ly >= lo.y() && hx <= hi.x() && hy <= hi.y();
+    return;
   } else
 #endif
   {
@@ -967,6 +1003,8 @@ void Solver::integrate(Real dt, Real kick) {
     trip(dt, x_new, v_new, rho, kinetic);
   ps_.x.commit_write();
   ps_.v.commit_write();
+  grid_.drop_ahead();
+  all_inside_ = false;
 }
 
 // solver_wcsph.cpp's kick-drift-kick calls integrate<F> too: emit every one.
@@ -1058,6 +1096,7 @@ void Solver::remove_outside_domain() {
   energy_removed_ += Real(0.5) * params_.mass * v2_out;
   wall_clear_fresh_ = false;  // the clearances are by storage index
   in_sort_order_ = false;     // and so is the grid's last sort
+  grid_.drop_ahead();
   ps_.compact(keep_);
   removed_ += removed;
 }

@@ -209,6 +209,9 @@ class Solver {
   // The particles are in the order of the grid's last sort, only moved since
   // (the next sort may then move just those that changed cell).
   bool in_sort_order_ = false;
+  // The last integration found every particle within the domain (its
+  // vector loop checks; remove_outside_domain's pass is then skipped).
+  bool all_inside_ = false;
   std::array<std::int64_t, 3> sort_counts_{};  // sorts by CellGrid::Reorder
   Csr<Index> nbrs_;
   CellPairs cell_pairs_;

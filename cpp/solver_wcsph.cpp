@@ -48,7 +48,7 @@ void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
   // changed), so the wall clearances of its find_ghosts hold for them.
   integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
   mark(kIntegrate);
-  remove_outside_domain();
+  if (!all_inside_) remove_outside_domain();
   mark(kDomain);
   wcsph_evaluate_kick<F>(half);  // the second kick rides on the force loop
   mark(kIntegrate);
