@@ -144,7 +144,8 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
         cells_of(s.first, s.last);
       }
     }
-    if (resort(n, order)) return moves_.empty() ? Reorder::kNone : Reorder::kMoves;
+    if (resort(n, order))
+      return moves_.empty() && jumps_.empty() ? Reorder::kNone : Reorder::kMoves;
   }
 
   // The counting sort: the cell ranges, the permutation, and the cells in
@@ -212,6 +213,7 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
 // mover's old cell and its new one.
 bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
   moves_.clear();
+  jumps_.clear();
   if (skip_ > 0) {  // it gave up lately: not before this many sorts have gone by
     --skip_;
     return false;
@@ -223,7 +225,8 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
   if (movers_.capacity() < most) {
     movers_.reserve(most);
     inserts_.reserve(most);
-    moves_.reserve(3 * most + 1);  // a block of stayers before and after each mover, and it
+    moves_.reserve(2 * most + 1);  // a block of stayers before and after each mover
+    jumps_.reserve(most);
   }
   movers_.clear();
   Index k = 0;
@@ -246,10 +249,12 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
   // Where the counting sort costs less: many movers, or movers that shift
   // many particles (each shifts those between its old place and its new one
   // by one; at 10k particles in the dam break about 60 each, at 1M over a
-  // thousand): moving half the particles twice costs about what the counting
-  // sort's permutation does. Then the next tries wait 1, 3 or 7 sorts.
+  // thousand): moving half the particles costs about what the counting
+  // sort's count, scatter and permutation do. Then the next tries wait 1, 3
+  // or 7 sorts.
   auto give_up = [&] {
     moves_.clear();
+    jumps_.clear();
     failures_ = std::min(failures_ + 1, 3);
     skip_ = (1 << failures_) - 1;
     return false;
@@ -286,7 +291,7 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
     stayers_to(e);
     for (; q < m && inserts_[q].before == e; ++q, ++out)
       if (inserts_[q].index != out) {
-        moves_.push_back({inserts_[q].index, out, 1});
+        jumps_.push_back({inserts_[q].index, out, 1});
         ++moved;
       }
     if (r < m && movers_[r] == e) {
@@ -296,7 +301,7 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
   }
   stayers_to(n);
   if (out != n) throw std::logic_error("resort: the moves do not place every particle");
-  if (2 * moved > n) return give_up();  // (and the particles' spare buffers hold n / 2)
+  if (2 * moved > n) return give_up();
   // start[c] counts the particles in cells below c: each mover changes it
   // between its old cell and its new one, cell by cell where that is short,
   // else by a running sum over all cells.
@@ -320,8 +325,8 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
     }
   }
   // The cells in the new order (the last sort's permutation, of n entries,
-  // is the scratch).
-  apply_moves(moves_, cell_in_.data(), scratch.data());
+  // holds the jumps' meanwhile).
+  apply_moves(moves_, jumps_, cell_in_.data(), scratch.data());
   cell_of_.swap(cell_in_);
   failures_ = 0;
   return true;

@@ -36,7 +36,10 @@ class CellGrid {
   // made 1e-8 larger than cell_size (see grid.cpp).
   Reorder sort(const Vec2* x, Index n, Real cell_size, int threads, std::vector<Index>& order,
                const PeriodicBox& box = PeriodicBox(), bool in_last_order = false);
+  // kMoves: the blocks that shift and the single particles that jump
+  // (apply_moves in moves.hpp).
   const std::vector<Move>& moves() const { return moves_; }
+  const std::vector<Move>& jumps() const { return jumps_; }
 
 #if defined(__AVX512F__)
   // The cells of eight points on a grid with corner lo, inverse cell widths
@@ -206,7 +209,8 @@ class CellGrid {
     return (cell_start_.capacity() + cell_of_.capacity() + cell_in_.capacity() +
             cursor_.capacity() + movers_.capacity()) *
                sizeof(Index) +
-           inserts_.capacity() * sizeof(Insert) + moves_.capacity() * sizeof(Move);
+           inserts_.capacity() * sizeof(Insert) +
+           (moves_.capacity() + jumps_.capacity()) * sizeof(Move);
   }
   Index nx() const { return nx_; }
   Index ny() const { return ny_; }
@@ -373,7 +377,7 @@ class CellGrid {
   int failures_ = 0, skip_ = 0;  // resort's give-ups in a row; sorts it still waits
   std::vector<Index> movers_;
   std::vector<Insert> inserts_;
-  std::vector<Move> moves_;
+  std::vector<Move> moves_, jumps_;
 };
 
 }  // namespace sphfluid

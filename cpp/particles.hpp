@@ -5,7 +5,6 @@
 #pragma once
 
 #include <algorithm>
-#include <cstring>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -84,10 +83,11 @@ struct ParticleSet {
   Index size() const { return static_cast<Index>(x.size()); }
   std::size_t bytes() const {
     return x.bytes() + v.bytes() + a.bytes() + rho.bytes() + p.bytes() + id.bytes() +
-           moved_at_.capacity() * sizeof(Index);
+           jumped_ids_.capacity() * sizeof(Id);
   }
 
   void resize(Index n) {
+    jumped_ids_.reserve(static_cast<std::size_t>(n) / 16 + 1);  // apply_moves, sized here
     x.resize(n);
     v.resize(n);
     a.resize(n);
@@ -118,77 +118,24 @@ struct ParticleSet {
     id.commit_write();
   }
 
-  // The same by block moves (CellGrid::moves), in place where no numpy view
-  // shares the arrays (a step moves few particles to another cell, so the
-  // blocks hold a few percent of them), else through a permutation in
-  // `order`. The entries moved pass through each field's spare buffer (the
-  // one begin_write() fills). On several threads each takes a share of the
-  // moves, in order of their destinations (the blocks mostly shift by a
-  // place or two, so each thread moves what it holds and reads next); all
-  // read their sources before any writes.
-  void apply_moves(const std::vector<Move>& moves, std::vector<Index>& order, int threads) {
-    if (!(x.exclusive() && v.exclusive() && id.exclusive())) {
-      moves_to_order(moves, size(), order);
+  // The same by moves (CellGrid::moves and jumps), in place where no numpy
+  // view shares the arrays (a step moves few particles to another cell, so
+  // the moves touch a few percent of them), else through a permutation in
+  // `order`. The jumping entries wait in the spare buffers of x and v (the
+  // ones begin_write() fills) and in jumped_ids_ (kept at n / 16 + 1
+  // entries, the most jumps a sort makes).
+  void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps,
+                   std::vector<Index>& order, int threads) {
+    const std::size_t n = static_cast<std::size_t>(size());
+    if (!(x.exclusive() && v.exclusive() && id.exclusive()) || jumps.size() > n / 16 + 1) {
+      moves_to_order(blocks, jumps, size(), order);
       permute_state(order, threads);
       return;
     }
-    const std::size_t count = moves.size(), n = static_cast<std::size_t>(size());
-    if (moved_at_.capacity() < moves.capacity() + 1) moved_at_.reserve(moves.capacity() + 1);
-    moved_at_.resize(count + 1);
-    moved_at_[0] = 0;
-    for (std::size_t k = 0; k < count; ++k) moved_at_[k + 1] = moved_at_[k] + moves[k].len;
-    const std::size_t total = static_cast<std::size_t>(moved_at_[count]);
-    if (2 * total > n) {  // more than the spare buffers hold (CellGrid::resort moves fewer)
-      moves_to_order(moves, size(), order);
-      permute_state(order, threads);
-      return;
-    }
-    Vec2* const xs = x.data();
-    Vec2* const vs = v.data();
-    Id* const is = id.data();
-    // The spare buffers of x and v: x's holds the moved positions, then the
-    // moved ids (as bytes: 24 of its 16 n bytes per entry moved, at most n / 2).
-    Vec2* const tx = x.begin_write(n);
-    Vec2* const tv = v.begin_write(n);
-    unsigned char* const ti = reinterpret_cast<unsigned char*>(tx + total);
-    auto gather = [&](std::size_t k0, std::size_t k1) {
-      for (std::size_t k = k0; k < k1; ++k) {
-        const Move& m = moves[k];
-        const std::size_t t = static_cast<std::size_t>(moved_at_[k]);
-        std::copy(xs + m.src, xs + m.src + m.len, tx + t);
-        std::copy(vs + m.src, vs + m.src + m.len, tv + t);
-        std::memcpy(ti + t * sizeof(Id), is + m.src, m.len * sizeof(Id));
-      }
-    };
-    auto place = [&](std::size_t k0, std::size_t k1) {
-      for (std::size_t k = k0; k < k1; ++k) {
-        const Move& m = moves[k];
-        const std::size_t t = static_cast<std::size_t>(moved_at_[k]);
-        std::copy(tx + t, tx + t + m.len, xs + m.dst);
-        std::copy(tv + t, tv + t + m.len, vs + m.dst);
-        std::memcpy(is + m.dst, ti + t * sizeof(Id), m.len * sizeof(Id));
-      }
-    };
-    if (threads > 1 && total >= kParallelMoves) {
-#pragma omp parallel num_threads(threads)
-      {
-        // Thread t's moves: those whose entries start in its share of them.
-        const int t = thread_rank(), nt = thread_team_size();
-        auto first = [&](int u) {
-          const Index goal = static_cast<Index>(std::int64_t(total) * u / nt);
-          return static_cast<std::size_t>(
-              std::lower_bound(moved_at_.begin(), moved_at_.end() - 1, goal) -
-              moved_at_.begin());
-        };
-        const std::size_t k0 = first(t), k1 = t + 1 == nt ? count : first(t + 1);
-        gather(k0, k1);
-#pragma omp barrier
-        place(k0, k1);
-      }
-    } else {
-      gather(0, count);
-      place(0, count);
-    }
+    jumped_ids_.resize(n / 16 + 1);
+    sphfluid::apply_moves(blocks, jumps, x.data(), x.begin_write(n));
+    sphfluid::apply_moves(blocks, jumps, v.data(), v.begin_write(n));
+    sphfluid::apply_moves(blocks, jumps, id.data(), jumped_ids_.data());
   }
 
   void compact(const std::vector<char>& keep) {
@@ -201,10 +148,7 @@ struct ParticleSet {
   }
 
  private:
-  // apply_moves: from this many entries moved on the threads; where each
-  // move's entries start in the scratch
-  static constexpr Index kParallelMoves = 4096;
-  std::vector<Index> moved_at_;
+  std::vector<Id> jumped_ids_;  // apply_moves' scratch
 };
 
 }  // namespace sphfluid

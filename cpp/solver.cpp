@@ -440,7 +440,7 @@ void Solver::sort_by_cell() {
     case CellGrid::Reorder::kNone:
       break;
     case CellGrid::Reorder::kMoves:
-      ps_.apply_moves(grid_.moves(), order_, team());
+      ps_.apply_moves(grid_.moves(), grid_.jumps(), order_, team());
       break;
     case CellGrid::Reorder::kOrder:
       ps_.permute_state(order_, team());
