@@ -144,7 +144,7 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
         cells_of(s.first, s.last);
       }
     }
-    if (resort(n, order))
+    if (resort(n, ahead, order))
       return moves_.empty() && jumps_.empty() ? Reorder::kNone : Reorder::kMoves;
   }
 
@@ -211,7 +211,7 @@ CellGrid::Reorder CellGrid::sort(const Vec2* x, Index n, Real cell_size, int thr
 // from above. So the stayers move as blocks, shifted by the movers taken out
 // and put in before them, and the cell ranges change only between each
 // mover's old cell and its new one.
-bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
+bool CellGrid::resort(Index n, bool marked, std::vector<Index>& scratch) {
   moves_.clear();
   jumps_.clear();
   if (skip_ > 0) {  // it gave up lately: not before this many sorts have gone by
@@ -229,19 +229,33 @@ bool CellGrid::resort(Index n, std::vector<Index>& scratch) {
     jumps_.reserve(most);
   }
   movers_.clear();
-  Index k = 0;
+  bool full = false;  // more movers than movers_ holds
+  if (marked) {  // the integration's marks, eight particles a byte
+    const unsigned char* mark = ahead_moved_.data();
+    const Index chunks = (n + 7) / 8;
+    for (Index c = 0; c < chunks && !full; ++c) {
+      for (unsigned b = mark[c]; b != 0; b &= b - 1)
+        movers_.push_back(8 * c + static_cast<Index>(__builtin_ctz(b)));
+      full = movers_.size() + 8 > movers_.capacity();
+    }
+  } else {
+    Index k = 0;
 #if defined(__AVX512F__)
-  if constexpr (sizeof(Index) == 4) {
-    for (; k + 16 <= n; k += 16) {
-      const __m512i a = _mm512_loadu_si512(now + k), b = _mm512_loadu_si512(was + k);
-      for (unsigned m = _mm512_cmpneq_epi32_mask(a, b); m != 0; m &= m - 1)
-        movers_.push_back(k + static_cast<Index>(__builtin_ctz(m)));
+    if constexpr (sizeof(Index) == 4) {
+      for (; k + 16 <= n && !full; k += 16) {
+        const __m512i a = _mm512_loadu_si512(now + k), b = _mm512_loadu_si512(was + k);
+        for (unsigned m = _mm512_cmpneq_epi32_mask(a, b); m != 0; m &= m - 1)
+          movers_.push_back(k + static_cast<Index>(__builtin_ctz(m)));
+        full = movers_.size() + 16 > movers_.capacity();
+      }
+    }
+#endif
+    for (; k < n && !full; ++k) {
+      if (now[k] != was[k]) movers_.push_back(k);
+      full = movers_.size() == movers_.capacity();
     }
   }
-#endif
-  for (; k < n; ++k)
-    if (now[k] != was[k]) movers_.push_back(k);
-  const std::size_t m = movers_.size();
+  const std::size_t m = full ? most : movers_.size();
   if (m == 0) {  // the order, the ranges and cell_of_ hold as they are
     failures_ = 0;
     return true;

@@ -71,13 +71,18 @@ class CellGrid {
   // A look ahead for the next sort, from the integration that moves the
   // particles (over no periodic axis): the new positions' bounding box and,
   // written into ahead_cells(n), their cells on this grid. The next sort of n
-  // particles takes the box, and the cells if the grid stays the same (a
-  // particle outside it changes the box, so none was clamped). Anything else
-  // that moves or reorders the particles drops it.
+  // particles takes the box, and the cells and marks if the grid stays the
+  // same (a particle outside it changes the box, so none was clamped).
+  // Anything else that moves or reorders the particles drops it.
   Index* ahead_cells(Index n) {
     cell_in_.resize(n);
+    ahead_moved_.resize(static_cast<std::size_t>(n) / 8 + 1);
     return cell_in_.data();
   }
+  // ... and for each eight particles from 8 k on, ahead_moved()[k] marks
+  // those whose cell differs from sorted_cells() (the last sort's).
+  unsigned char* ahead_moved() { return ahead_moved_.data(); }
+  const Index* sorted_cells() const { return cell_of_.data(); }
   void set_ahead(Index n, const Vec2& lo, const Vec2& hi) {
     ahead_n_ = n;
     ahead_lo_ = lo;
@@ -209,6 +214,7 @@ class CellGrid {
     return (cell_start_.capacity() + cell_of_.capacity() + cell_in_.capacity() +
             cursor_.capacity() + movers_.capacity()) *
                sizeof(Index) +
+           ahead_moved_.capacity() +
            inserts_.capacity() * sizeof(Insert) +
            (moves_.capacity() + jumps_.capacity()) * sizeof(Move);
   }
@@ -360,7 +366,7 @@ class CellGrid {
   // Where few particles changed cell since the last sort (same n and grid):
   // moves that put them in place, or false where too many did; scratch holds
   // n entries.
-  bool resort(Index n, std::vector<Index>& scratch);
+  bool resort(Index n, bool marked, std::vector<Index>& scratch);
 
   std::vector<Index> cell_of_;     // cell of each particle, in sorted order
   std::vector<Index> cell_in_;     // cell of each particle, in input order
@@ -368,6 +374,7 @@ class CellGrid {
   Index sorted_n_ = -1;        // particles of the last sort (-1: none yet)
   Index ahead_n_ = -1;         // set_ahead's particles (-1: no look ahead)
   Vec2 ahead_lo_ = Vec2::Zero(), ahead_hi_ = Vec2::Zero();
+  std::vector<unsigned char> ahead_moved_;  // by eight particles
   // resort's scratch: the particles that changed cell (by input index), where
   // each goes (its cell, index, and the input place it goes before), and the
   // moves.

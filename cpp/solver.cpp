@@ -872,6 +872,8 @@ void Solver::integrate(Real dt, Real kick) {
     // bounding box (std::min's rule: a NaN is passed over), which also tells
     // whether any left the domain, and their cells on the current grid.
     Index* const cells_ahead = n > 0 && grid_.n_cells() > 0 ? grid_.ahead_cells(n) : nullptr;
+    unsigned char* const moved_ahead = grid_.ahead_moved();
+    const Index* const cells_now = grid_.sorted_cells();
     const CellGrid::Cells8 cells8 = grid_.cells8();
     Real lx = inf, ly = inf, hx = -inf, hy = -inf;
 #pragma omp parallel num_threads(team()) reduction(|| : bad) reduction(+ : v2_sum) \
@@ -954,7 +956,12 @@ void Solver::integrate(Real dt, Real kick) {
         vly = _mm512_mask_min_pd(vly, lanes, to_y, vly);
         vhx = _mm512_mask_max_pd(vhx, lanes, to_x, vhx);
         vhy = _mm512_mask_max_pd(vhy, lanes, to_y, vhy);
-        if (cells_ahead) _mm256_mask_storeu_epi32(cells_ahead + i0, lanes, cells8(to_x, to_y));
+        if (cells_ahead) {
+          const __m256i cells = cells8(to_x, to_y);
+          _mm256_mask_storeu_epi32(cells_ahead + i0, lanes, cells);
+          moved_ahead[c] = _mm256_mask_cmpneq_epi32_mask(
+              lanes, cells, _mm256_maskz_loadu_epi32(lanes, cells_now + i0));
+        }
       }
       lx = _mm512_reduce_min_pd(vlx);
       ly = _mm512_reduce_min_pd(vly);
