@@ -15,7 +15,6 @@ struct Move {
   Index src, dst, len;
 };
 
-
 // A reordering in place (CellGrid::resort): blocks that shift, in the order
 // of their destinations, which do not overlap, and jumps of single entries.
 // tmp[] holds the jumps' entries meanwhile. A block's source may lie under

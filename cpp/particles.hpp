@@ -4,9 +4,7 @@
 // resize memory a view still points at (copy-on-write), so a view never dangles.
 #pragma once
 
-#include <algorithm>
 #include <memory>
-#include <utility>
 #include <vector>
 
 #include "moves.hpp"

@@ -870,7 +870,8 @@ void Solver::integrate(Real dt, Real kick) {
     [[maybe_unused]] const float* clear2_of = wall_clear2_.data();
     // Ahead of the next sort (CellGrid::set_ahead): the new positions'
     // bounding box (std::min's rule: a NaN is passed over), which also tells
-    // whether any left the domain, and their cells on the current grid.
+    // whether any left the domain, their cells on the current grid, and a
+    // byte per eight particles marking those whose cell changed.
     Index* const cells_ahead = n > 0 && grid_.n_cells() > 0 ? grid_.ahead_cells(n) : nullptr;
     unsigned char* const moved_ahead = grid_.ahead_moved();
     const Index* const cells_now = grid_.sorted_cells();
