@@ -222,8 +222,8 @@ bool CellGrid::resort(Index n, bool marked, std::vector<Index>& scratch) {
   const Index* was = cell_of_.data();
   // The scratch at its largest from the start: no allocation in later steps.
   const std::size_t most = static_cast<std::size_t>(n / 16) + 1;
-  if (movers_.capacity() < most) {
-    movers_.reserve(most);
+  if (movers_.capacity() < most + 16) {
+    movers_.reserve(most + 16);  // (the scans below stop a group of 16 early)
     inserts_.reserve(most);
     moves_.reserve(2 * most + 1);  // a block of stayers before and after each mover
     jumps_.reserve(most);

@@ -30,7 +30,7 @@ class CellGrid {
   // k-th particle), or, where `in_last_order` says the particles are those
   // of the last sort in its order (moved since, nothing else) and the grid is
   // the same, kNone if no particle changed cell, or kMoves with moves() that
-  // reorder them, when few did (`order` is then left as it was).
+  // reorder them, when few did (`order` then served as scratch).
   // The sort uses the threads from kParallelMin particles on (parallel.hpp).
   // Along box's periodic axes the positions must lie in the box. The cells are
   // made 1e-8 larger than cell_size (see grid.cpp).
@@ -74,6 +74,9 @@ class CellGrid {
   // particles takes the box, and the cells and marks if the grid stays the
   // same (a particle outside it changes the box, so none was clamped).
   // Anything else that moves or reorders the particles drops it.
+  // Whether the last sort was of n particles on a grid of cells: only then
+  // do sorted_cells() hold n entries to compare against.
+  bool can_look_ahead(Index n) const { return n > 0 && sorted_n_ == n && n_cells() > 0; }
   Index* ahead_cells(Index n) {
     cell_in_.resize(n);
     ahead_moved_.resize(static_cast<std::size_t>(n) / 8 + 1);

@@ -872,7 +872,7 @@ void Solver::integrate(Real dt, Real kick) {
     // bounding box (std::min's rule: a NaN is passed over), which also tells
     // whether any left the domain, their cells on the current grid, and a
     // byte per eight particles marking those whose cell changed.
-    Index* const cells_ahead = n > 0 && grid_.n_cells() > 0 ? grid_.ahead_cells(n) : nullptr;
+    Index* const cells_ahead = grid_.can_look_ahead(n) ? grid_.ahead_cells(n) : nullptr;
     unsigned char* const moved_ahead = grid_.ahead_moved();
     const Index* const cells_now = grid_.sorted_cells();
     const CellGrid::Cells8 cells8 = grid_.cells8();
