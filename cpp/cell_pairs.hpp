@@ -243,6 +243,15 @@ class CellPairs {
     const __m512d efgh = quarters(halves(e, f), halves(g, h));
     return _mm512_add_pd(_mm512_unpacklo_pd(abcd, efgh), _mm512_unpackhi_pd(abcd, efgh));
   }
+  // A tile of k (at most 4) particles from out (their x and y interleaved, as
+  // a[] holds them) gets scale times its lane sums sx[q], sy[q], in one vector.
+  static void add_tile_sums(Real* out, int k, const __m512d (&sx)[4], const __m512d (&sy)[4],
+                            __m512d scale) {
+    const __m512d sums = sum8(sx[0], sx[1], sx[2], sx[3], sy[0], sy[1], sy[2], sy[3]);
+    const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
+    _mm512_mask_storeu_pd(out, mine,
+                          _mm512_fmadd_pd(scale, sums, _mm512_maskz_loadu_pd(mine, out)));
+  }
 #endif
 
  public:
@@ -427,16 +436,13 @@ class CellPairs {
       run(runs.above0, runs.above1, false, runs.above_in_block);
       run(runs.below0, runs.below1, false, false);
       if constexpr (kW == 8) {
-        // The tile's sums in one vector, (x, y) of each particle as a[] holds them.
         __m512d sx[4], sy[4];
         for (int q = 0; q < 4; ++q) {
           sx[q] = q < k ? fx[q] : zero;
           sy[q] = q < k ? fy[q] : zero;
         }
-        const __m512d sums = sum8(sx[0], sx[1], sx[2], sx[3], sy[0], sy[1], sy[2], sy[3]);
-        const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
-        Real* out = ad + 2 * static_cast<std::size_t>(q0);
-        _mm512_mask_storeu_pd(out, mine, _mm512_add_pd(_mm512_maskz_loadu_pd(mine, out), sums));
+        // (1 * sums + a: one rounding, the same bits as sums + a)
+        add_tile_sums(ad + 2 * static_cast<std::size_t>(q0), k, sx, sy, _mm512_set1_pd(1));
       } else {
         for (int q = 0; q < k; ++q) {
           Vec2& ai = a[q0 + q];
@@ -446,7 +452,6 @@ class CellPairs {
       }
     }, finish);
   }
-
 
   // The seed's pressure and viscosity pair terms (eqs. 14, 17) as force
   // densities: for i, -m (p_i + p_j) / (2 rho_j) grad W_spiky(r_ij) + eta m /
@@ -747,18 +752,13 @@ class CellPairs {
           }
         }
       });
-      // The tile's sums in one vector, (x, y) of each particle as a[] holds
-      // them: a_i += s (sum of i's lanes, widened to double).
+      // a_i += s (sum of i's lanes, widened to double)
       __m512d wx[4], wy[4];
       for (int q = 0; q < 4; ++q) {
         wx[q] = q < k ? _mm512_cvtps_pd(fx[q]) : _mm512_setzero_pd();
         wy[q] = q < k ? _mm512_cvtps_pd(fy[q]) : _mm512_setzero_pd();
       }
-      const __m512d sums = sum8(wx[0], wx[1], wx[2], wx[3], wy[0], wy[1], wy[2], wy[3]);
-      const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
-      double* out = ad + 2 * static_cast<std::size_t>(q0);
-      _mm512_mask_storeu_pd(out, mine,
-                            _mm512_fmadd_pd(scale, sums, _mm512_maskz_loadu_pd(mine, out)));
+      add_tile_sums(ad + 2 * static_cast<std::size_t>(q0), k, wx, wy, scale);
     }, add_shares_then_finish);
   }
 

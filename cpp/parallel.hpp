@@ -81,7 +81,7 @@ class Balance {
     double total = 0;
     for (double s : seconds_) total += s;
     if (nt < 2 || !(total > 0)) return;
-    std::vector<double>& target = target_;
+    std::vector<double>& target = target_;  // (a member: no allocation in the step)
     target.assign(nt + 1, 0.0);
     target[nt] = 1;
     int r = 0;

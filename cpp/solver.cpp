@@ -138,19 +138,14 @@ template <class Then>
 void Solver::find_ghosts(bool interior_only, bool density, Then then) {
   const Vec2* x = ps_.x.data();
   Real* rho = ps_.rho.data();
-  const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
   // Returns the squared distance from x[i] to the nearest wall of its lookup cell.
   auto emit = [&](Index i, Chunk<Vec2>& out) {
     const std::size_t before = out.size();
     const Real d2 = walls_.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
       if (interior || !interior_only) out.push_back(r);
     });
-    if (density && out.size() != before) {
-      Real g = 0;
-      for (const Vec2* r = out.begin() + before; r != out.end(); ++r)
-        g += kern_.w_poly6(r->squaredNorm());
-      rho[i] += m_ghost * g;
-    }
+    if (density && out.size() != before)
+      add_ghost_density(rho[i], {out.begin() + before, out.end()});
     return d2;
   };
 #if defined(__AVX512F__) && defined(__AVX512VL__)
@@ -558,14 +553,17 @@ template <unsigned F>
 void Solver::finish_density(Index i0, Index i1) {
   if constexpr ((F & kWalls) != 0) {
     Real* rho = ps_.rho.data();
-    const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
-    ghosts_.for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
-      Real g = 0;
-      for (const Vec2& r : ghosts) g += kern_.w_poly6(r.squaredNorm());
-      rho[i] += m_ghost * g;
-    });
+    ghosts_.for_each_nonempty_row_in(
+        i0, i1, [&](Index i, Row<Vec2> ghosts) { add_ghost_density(rho[i], ghosts); });
   }
   finish_eos<F>(i0, i1);
+}
+
+// The wall ghosts' share of a particle's density (4.1), summed in their order.
+void Solver::add_ghost_density(Real& rho, Row<Vec2> ghosts) const {
+  Real g = 0;
+  for (const Vec2& r : ghosts) g += kern_.w_poly6(r.squaredNorm());
+  rho += params_.ghost_mass_ratio * params_.mass * g;
 }
 
 // The EOS (eq. 15) of the particles [i0, i1) whose densities are complete, in

@@ -168,6 +168,7 @@ class Solver {
   // (the forces by cells) per pair block as soon as its sums are complete.
   template <unsigned F> void finish_density(Index i0, Index i1);
   template <unsigned F> void finish_eos(Index i0, Index i1);
+  void add_ghost_density(Real& rho, Row<Vec2> ghosts) const;
   template <unsigned F> void finish_accelerations(Index i0, Index i1);
   template <unsigned F>
   void add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
