@@ -205,10 +205,12 @@ void bind_solver(py::module_& m) {
             d["unchanged"] = s.sort_counts()[0];
             d["moved"] = s.sort_counts()[1];
             d["permuted"] = s.sort_counts()[2];
+            d["moved_in_parts"] = s.sort_counts()[3];
             return d;
           },
           "sorts by cell so far, by what they did: no particle changed cell (unchanged), "
-          "the few that did were moved into place (moved), or all were permuted")
+          "the few that did were moved into place (moved; moved_in_parts of them by the "
+          "threads, each its own range), or all were permuted")
       .def_property_readonly("neighbour_pairs", &Solver::neighbour_pairs,
                              "stored neighbour pairs (i, j != i) of the last evaluation")
       .def_property_readonly(

@@ -40,6 +40,8 @@ class CellGrid {
   // (apply_moves in moves.hpp).
   const std::vector<Move>& moves() const { return moves_; }
   const std::vector<Move>& jumps() const { return jumps_; }
+  // The same moves cut into parts of disjoint ranges, one for each thread.
+  const MoveParts& move_parts() const { return parts_; }
 
 #if defined(__AVX512F__)
   // The cells of eight points on a grid with corner lo, inverse cell widths
@@ -369,7 +371,7 @@ class CellGrid {
   // Where few particles changed cell since the last sort (same n and grid):
   // moves that put them in place, or false where too many did; scratch holds
   // n entries.
-  bool resort(Index n, bool marked, std::vector<Index>& scratch);
+  bool resort(Index n, int threads, bool marked, std::vector<Index>& scratch);
 
   std::vector<Index> cell_of_;     // cell of each particle, in sorted order
   std::vector<Index> cell_in_;     // cell of each particle, in input order
@@ -388,6 +390,8 @@ class CellGrid {
   std::vector<Index> movers_;
   std::vector<Insert> inserts_;
   std::vector<Move> moves_, jumps_;
+  MoveParts parts_;
+  std::vector<Index> cut_at_;  // resort's cuts so far
 };
 
 }  // namespace sphfluid

@@ -25,14 +25,43 @@ struct Move {
 // reverse order, each copied in the direction that spares its own source;
 // the jumps' sources are saved first and their destinations written last.
 template <class T>
-void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps, T* a, T* tmp) {
-  for (std::size_t k = 0; k < jumps.size(); ++k) tmp[k] = a[jumps[k].src];
-  for (const Move& b : blocks)
+void apply_moves(const Move* blocks, std::size_t n_blocks, const Move* jumps,
+                 std::size_t n_jumps, T* a, T* tmp) {
+  for (std::size_t k = 0; k < n_jumps; ++k) tmp[k] = a[jumps[k].src];
+  for (std::size_t k = 0; k < n_blocks; ++k) {
+    const Move& b = blocks[k];
     if (b.dst < b.src) std::copy(a + b.src, a + b.src + b.len, a + b.dst);
-  for (auto b = blocks.rbegin(); b != blocks.rend(); ++b)
-    if (b->dst > b->src) std::copy_backward(a + b->src, a + b->src + b->len, a + b->dst + b->len);
-  for (std::size_t k = 0; k < jumps.size(); ++k) a[jumps[k].dst] = tmp[k];
+  }
+  for (std::size_t k = n_blocks; k-- > 0;) {
+    const Move& b = blocks[k];
+    if (b.dst > b.src) std::copy_backward(a + b.src, a + b.src + b.len, a + b.dst + b.len);
+  }
+  for (std::size_t k = 0; k < n_jumps; ++k) a[jumps[k].dst] = tmp[k];
 }
+template <class T>
+void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps, T* a, T* tmp) {
+  apply_moves(blocks.data(), blocks.size(), jumps.data(), jumps.size(), a, tmp);
+}
+
+// The moves cut into parts that touch disjoint ranges of entries, so that
+// each can be applied by a thread of its own, the same reordering in place:
+// part t is blocks [block[t], block[t + 1]) and jumps [jump[t], jump[t + 1]),
+// all of whose sources and destinations lie in [at[t], at[t + 1]). Both lists
+// are in the order of their destinations, so each part's moves are a run of
+// each. The cuts are where the reordering keeps the entries before them
+// among themselves (CellGrid::resort finds them).
+struct MoveParts {
+  std::vector<Index> at;                 // parts + 1 cut places: 0, ..., n
+  std::vector<std::size_t> block, jump;  // parts + 1 list indices each
+  int count() const { return static_cast<int>(at.size()) - 1; }
+  // Apply part t to a, with tmp as apply_moves' (jumps().size() entries).
+  template <class T>
+  void apply(int t, const std::vector<Move>& blocks, const std::vector<Move>& jumps, T* a,
+             T* tmp) const {
+    apply_moves(blocks.data() + block[t], block[t + 1] - block[t], jumps.data() + jump[t],
+                jump[t + 1] - jump[t], a, tmp + jump[t]);
+  }
+};
 
 // The same reordering as a permutation: order[k] = the entry that goes to k.
 inline void moves_to_order(const std::vector<Move>& blocks, const std::vector<Move>& jumps,

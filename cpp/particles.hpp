@@ -121,9 +121,11 @@ struct ParticleSet {
   // the moves touch a few percent of them), else through a permutation in
   // `order`. The jumping entries wait in the spare buffers of x and v (the
   // ones begin_write() fills) and in jumped_ids_ (kept at n / 16 + 1
-  // entries, the most jumps a sort makes).
+  // entries, the most jumps a sort makes). In place, each of the moves'
+  // parts (disjoint ranges) is applied by a thread of its own: the one that
+  // takes that range in the loops that follow.
   void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps,
-                   std::vector<Index>& order, int threads) {
+                   const MoveParts& parts, std::vector<Index>& order, int threads) {
     const std::size_t n = static_cast<std::size_t>(size());
     if (!(x.exclusive() && v.exclusive() && id.exclusive()) || jumps.size() > n / 16 + 1) {
       moves_to_order(blocks, jumps, size(), order);
@@ -131,9 +133,25 @@ struct ParticleSet {
       return;
     }
     jumped_ids_.resize(n / 16 + 1);
-    sphfluid::apply_moves(blocks, jumps, x.data(), x.begin_write(n));
-    sphfluid::apply_moves(blocks, jumps, v.data(), v.begin_write(n));
-    sphfluid::apply_moves(blocks, jumps, id.data(), jumped_ids_.data());
+    Vec2* const xs = x.data();
+    Vec2* const vs = v.data();
+    Id* const is = id.data();
+    Vec2* const xt = x.begin_write(n);
+    Vec2* const vt = v.begin_write(n);
+    Id* const it = jumped_ids_.data();
+    const int count = threads > 1 ? parts.count() : 1;
+    if (count > 1) {
+#pragma omp parallel for schedule(static) num_threads(count)
+      for (int t = 0; t < count; ++t) {
+        parts.apply(t, blocks, jumps, xs, xt);
+        parts.apply(t, blocks, jumps, vs, vt);
+        parts.apply(t, blocks, jumps, is, it);
+      }
+    } else {
+      sphfluid::apply_moves(blocks, jumps, xs, xt);
+      sphfluid::apply_moves(blocks, jumps, vs, vt);
+      sphfluid::apply_moves(blocks, jumps, is, it);
+    }
   }
 
   void compact(const std::vector<char>& keep) {

@@ -435,13 +435,21 @@ void Solver::sort_by_cell() {
     case CellGrid::Reorder::kNone:
       break;
     case CellGrid::Reorder::kMoves:
-      ps_.apply_moves(grid_.moves(), grid_.jumps(), order_, team());
+      ps_.apply_moves(grid_.moves(), grid_.jumps(), grid_.move_parts(), order_, team());
       break;
     case CellGrid::Reorder::kOrder:
       ps_.permute_state(order_, team());
       break;
   }
   ++sort_counts_[static_cast<int>(how)];
+  if (how == CellGrid::Reorder::kMoves) {
+    const MoveParts& parts = grid_.move_parts();
+    for (int t = 1; t < parts.count(); ++t)
+      if (parts.at[t] > 0 && parts.at[t] < size()) {
+        ++sort_counts_[3];
+        break;
+      }
+  }
   in_sort_order_ = true;
   mark(kSort);
 }

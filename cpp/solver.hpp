@@ -106,7 +106,8 @@ class Solver {
   // Sorts since the solver was made, by what they did to the order: none
   // changed, few particles moved in place, or a full permutation
   // (CellGrid::Reorder).
-  const std::array<std::int64_t, 3>& sort_counts() const { return sort_counts_; }
+  // Sorts by CellGrid::Reorder, then those of kMoves cut into parts for the threads.
+  const std::array<std::int64_t, 4>& sort_counts() const { return sort_counts_; }
   void reset_phase_seconds() { phase_seconds_.fill(0.0); }
   // Heap bytes held by the solver's arrays (capacity included), by part.
   std::vector<std::pair<std::string, std::size_t>> memory_bytes() const {
@@ -213,7 +214,7 @@ class Solver {
   // The last integration found every particle within the domain (its
   // vector loop checks; remove_outside_domain's pass is then skipped).
   bool all_inside_ = false;
-  std::array<std::int64_t, 3> sort_counts_{};  // sorts by CellGrid::Reorder
+  std::array<std::int64_t, 4> sort_counts_{};  // sort_counts()
   Csr<Index> nbrs_;
   CellPairs cell_pairs_;
   // The seed's pair forces in float (SimParams::float_pairs, where the cell
