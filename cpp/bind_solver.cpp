@@ -169,6 +169,10 @@ void bind_solver(py::module_& m) {
                              "whether the pair forces run in single precision: asked for "
                              "(SimParams.float_pairs), seed, and the step runs them by cell "
                              "clusters (no surface tension, no periodic axis, an AVX-512 build)")
+      .def_property_readonly("recip_root", &Solver::recip_root,
+                             "whether the seed's double pair forces by cell clusters take 1/r "
+                             "from rsqrt14 and two Newton steps instead of a square root and a "
+                             "division (chosen by CPU: Intel's 512-bit root and division are slow)")
       .def_property_readonly("threads_in_use", &Solver::team,
                              "threads the step's loops use now: `threads`, or 1 below 1,000 "
                              "particles, where a second thread costs more than it gains")

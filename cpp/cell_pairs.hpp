@@ -78,6 +78,22 @@ struct IsCheap : std::false_type {};
 template <class W>
 struct IsCheap<W, std::void_t<decltype(W::kCheap)>> : std::bool_constant<W::kCheap> {};
 
+// Whether the seed's double pair forces take 1/r from rsqrt14 and two Newton
+// steps (SeedPair's RecipRoot) on this CPU rather than a square root and a
+// division. Measured on the 10k dam break, 1 thread: on an Intel Xeon
+// (AVX-512, 2026-11-25) forces 251 -> 217 us a step; on an AMD EPYC (Zen 4)
+// 311 -> 341 (BENCHMARKS.md). Intel's 512-bit square root and division are
+// the slow ones; so Intel CPUs take the Newton steps. (In float, with eight
+// lanes of 256 bits, the root and division stay on both: on the Xeon the
+// Newton step lost, 193 -> 210 us.)
+inline bool prefers_recip_root() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  return __builtin_cpu_is("intel");
+#else
+  return false;
+#endif
+}
+
 class CellPairs {
  private:
   // Cuts rows [0, ny) into at most `count` blocks: block k starts at the first
@@ -502,7 +518,10 @@ class CellPairs {
   // The seed's pressure and viscosity pair terms (eqs. 14, 17) as force
   // densities: for i, -m (p_i + p_j) / (2 rho_j) grad W_spiky(r_ij) + eta m /
   // rho_j lap W_visc (v_j - v_i); for j the same with 1 / rho_i and r_ji = -r_ij.
-  template <bool Viscosity>
+  // With RecipRoot, 1/r comes from rsqrt14 and two Newton steps (a few ulp
+  // off the correctly rounded root) instead of a square root and a division:
+  // prefers_recip_root() says where that pays.
+  template <bool Viscosity, bool RecipRoot = false>
   struct SeedPair {
     static constexpr Index kLanes = 8;
     using V = __m512d;
@@ -527,12 +546,24 @@ class CellPairs {
     void add(Index i, const Data& dj, __mmask8 in, __m512d dx, __m512d dy, __m512d r2,
              __m512d& fix, __m512d& fiy, __m512d& fjx, __m512d& fjy) const {
       const __m512d zero = _mm512_setzero_pd();
-      // d = h - r, at least 0 (r may round up to just past h)
-      const __m512d rl = _mm512_sqrt_pd(r2);
-      const __m512d d = _mm512_max_pd(_mm512_sub_pd(h, rl), zero);
+      // d = h - r, at least 0 (r may round up to just past h);
       // grad = spiky_grad d^2 / r, zero at r = 0 (coincident particles)
       const __mmask8 nz = _mm512_mask_cmp_pd_mask(in, r2, zero, _CMP_GT_OQ);
-      const __m512d grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
+      __m512d d, grad;
+      if constexpr (RecipRoot) {
+        // y = 1/r (0 off nz): 14 bits, then y (3 - r^2 y^2) / 2 twice
+        const __m512d half_r2 = _mm512_mul_pd(_mm512_set1_pd(0.5), r2);
+        const __m512d three_halves = _mm512_set1_pd(1.5);
+        __m512d y = _mm512_maskz_rsqrt14_pd(nz, r2);
+        for (int step = 0; step < 2; ++step)
+          y = _mm512_mul_pd(y, _mm512_fnmadd_pd(_mm512_mul_pd(half_r2, y), y, three_halves));
+        d = _mm512_max_pd(_mm512_sub_pd(h, _mm512_mul_pd(r2, y)), zero);
+        grad = _mm512_mul_pd(_mm512_mul_pd(d, d), y);
+      } else {
+        const __m512d rl = _mm512_sqrt_pd(r2);
+        d = _mm512_max_pd(_mm512_sub_pd(h, rl), zero);
+        grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
+      }
       // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
       const __m512d fp =
           _mm512_mul_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), dj.p), grad_c), grad);
@@ -814,13 +845,13 @@ class CellPairs {
     pair_sums(grid, x, h, a, threads, pair);
   }
 
-  template <bool Viscosity, class Finish>
+  template <bool Viscosity, bool RecipRoot = false, class Finish = NoFinish>
   void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
                    const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
-                   Vec2* a, int threads, Finish finish) const {
-    const SeedPair<Viscosity> pair{v, p, inv_rho, _mm512_set1_pd(h),
-                                   _mm512_set1_pd(half_m_spiky_grad),
-                                   _mm512_set1_pd(eta_m_visc_lap)};
+                   Vec2* a, int threads, Finish finish = {}) const {
+    const SeedPair<Viscosity, RecipRoot> pair{v, p, inv_rho, _mm512_set1_pd(h),
+                                              _mm512_set1_pd(half_m_spiky_grad),
+                                              _mm512_set1_pd(eta_m_visc_lap)};
     pair_sums(grid, x, h, a, threads, pair, finish);
   }
 #endif

@@ -525,11 +525,17 @@ void Solver::seed_forces_by_cells(Finish finish) {
                                                team(), finish);
       return;
     }
-    cell_pairs_.seed_forces<Viscosity>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
-                                       inv_rho_.data(), kern_.h,
-                                       Real(0.5) * params_.mass * kern_.spiky_grad,
-                                       params_.eta * params_.mass * kern_.visc_lap,
-                                       ps_.a.data(), team(), finish);
+    const Real grad_c = Real(0.5) * params_.mass * kern_.spiky_grad;
+    const Real lap_c = params_.eta * params_.mass * kern_.visc_lap;
+    if (recip_root_) {
+      cell_pairs_.seed_forces<Viscosity, true>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
+                                               inv_rho_.data(), kern_.h, grad_c, lap_c,
+                                               ps_.a.data(), team(), finish);
+    } else {
+      cell_pairs_.seed_forces<Viscosity, false>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
+                                                inv_rho_.data(), kern_.h, grad_c, lap_c,
+                                                ps_.a.data(), team(), finish);
+    }
     return;
   }
 #endif

@@ -98,6 +98,7 @@ class Solver {
   // Whether the pair forces run in float (asked for, and the step runs them
   // by cell clusters), else double.
   bool float_pairs() const { return float_pairs_; }
+  bool recip_root() const { return recip_root_; }
   void set_threads(int threads);
   // The threads of the step's loops: threads(), or one below kParallelMin
   // particles (parallel.hpp).
@@ -221,6 +222,9 @@ class Solver {
   // clusters run): the per-particle floats they read.
   bool float_pairs_ = false;
   SeedFloats floats_;
+  // The seed's double pair forces by cell clusters take 1/r from rsqrt14 and
+  // Newton steps on this CPU (prefers_recip_root in cell_pairs.hpp).
+  bool recip_root_ = prefers_recip_root();
   std::int64_t cell_pair_count_ = -1;  // pairs of the last evaluation by cells, else -1
   Csr<Vec2> ghosts_;          // r_i - r_ghost of each wall ghost of particle i
   Balance ghost_balance_;     // the threads' shares of the ghost search (and the EOS)

@@ -1,0 +1,84 @@
+"""The seed's double pair forces with 1/r from rsqrt14 and two Newton steps
+(SeedPair's RecipRoot, which Intel CPUs run: prefers_recip_root) against the
+square root and division, in a small program: the same forces to round-off,
+including coincident particles (r = 0, no force) and pairs just inside h."""
+from __future__ import annotations
+
+import pytest
+import sphfluid
+from conftest import ROOT
+from test_walls_native import build_and_run
+
+DRIVER = r"""
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+#include "cell_pairs.hpp"
+using namespace sphfluid;
+
+int main() {
+#if SPHFLUID_CELL_PAIRS
+  unsigned s = 5;
+  auto rnd = [&] { s = s * 1664525u + 1013904223u; return (s >> 8) / double(1u << 24); };
+  const Real h = 0.02, dx = 0.01;
+  std::vector<Vec2> x0;
+  for (int j = 0; j < 50; ++j)
+    for (int i = 0; i < 40; ++i)
+      x0.emplace_back((i + 0.5 + 0.3 * (rnd() - 0.5)) * dx, (j + 0.5 + 0.3 * (rnd() - 0.5)) * dx);
+  x0.push_back(x0[100]);                              // coincident with particle 100
+  x0.push_back(x0[200] + Vec2(h * (1 - 1e-12), 0));   // just inside h of particle 200
+  const Index n = static_cast<Index>(x0.size());
+  CellGrid grid;
+  std::vector<Index> order;
+  grid.sort(x0.data(), n, h, 1, order);
+  std::vector<Vec2> x(n), v(n);
+  std::vector<Real> p(n), ir(n);
+  for (Index k = 0; k < n; ++k) {
+    x[k] = x0[order[k]];
+    v[k] = Vec2(rnd() - 0.5, rnd() - 0.5);
+    p[k] = 1e3 * (rnd() + 0.1);
+    ir[k] = 1e-3 * (0.9 + 0.2 * rnd());
+  }
+  CellPairs cp;
+  cp.make_blocks(grid, n, 2);
+  std::vector<Real> rho(n);
+  struct One {
+    __m512d operator()(__m512d) const { return _mm512_set1_pd(1.0); }
+    Real operator()(Real) const { return 1.0; }
+  };
+  cp.density(grid, x.data(), h, 1.0, 1.0, One{}, rho.data(), 1);  // (cuts the pair blocks)
+  std::vector<Vec2> a0(n), a1(n);
+  cp.seed_forces<true, false>(grid, x.data(), v.data(), p.data(), ir.data(), h, -1.5, 0.7,
+                              a0.data(), 2);
+  cp.seed_forces<true, true>(grid, x.data(), v.data(), p.data(), ir.data(), h, -1.5, 0.7,
+                             a1.data(), 2);
+  double largest = 0, diff = 0;
+  int bad = 0;
+  for (Index k = 0; k < n; ++k) {
+    largest = std::max(largest, a0[k].norm());
+    diff = std::max(diff, (a1[k] - a0[k]).norm());
+    bad += !(a1[k].allFinite() && a0[k].allFinite());
+  }
+  std::printf("largest %.6e, max difference %.3e of it, %d not finite\n", largest,
+              diff / largest, bad);
+  return bad != 0 || !(diff <= 1e-14 * largest);
+#else
+  std::printf("no cell clusters in this build\n");
+  return 0;
+#endif
+}
+"""
+
+
+def test_recip_root_gives_the_forces_of_the_root_and_division(tmp_path):
+    out = build_and_run(tmp_path, DRIVER, "-march=native", "-fopenmp", units=("grid.cpp",))
+    assert out.returncode == 0, out.stdout + out.stderr
+    if "no cell clusters" in out.stdout:
+        pytest.skip("the cell clusters need AVX-512F and VL")
+    assert "0 not finite" in out.stdout, out.stdout
+
+
+def test_the_solver_says_which_root_it_takes():
+    sim = sphfluid.Simulation(str(ROOT / "scenes" / "droplet.json"))
+    assert isinstance(sim._solver.recip_root, bool)
