@@ -228,7 +228,7 @@ bool CellGrid::resort(Index n, int threads, bool marked, std::vector<Index>& scr
   const Index* now = cell_in_.data();
   const Index* was = cell_of_.data();
   // The scratch at its largest from the start: no allocation in later steps.
-  const std::size_t most = static_cast<std::size_t>(n / 16) + 1;
+  const std::size_t most = static_cast<std::size_t>(n / 64) + 1;
   if (movers_.capacity() < most + 16) {
     movers_.reserve(most + 16);  // (the scans below stop a group of 16 early)
     inserts_.reserve(most);
@@ -267,17 +267,18 @@ bool CellGrid::resort(Index n, int threads, bool marked, std::vector<Index>& scr
     failures_ = 0;
     return true;
   }
-  // Where the counting sort costs less: many movers (the jumps are single
-  // entries). Then the next tries wait 1, 3 or 7 sorts. However far the
-  // movers shift the stayers (each those between its old place and its new
-  // one by one: at 10k particles in the dam break about 60 each, at 1M over
-  // a thousand), each entry moves once at most, in runs, split between the
-  // threads (MoveParts): no more than a streaming copy of the particles,
-  // where the counting sort scatters and gathers them. (It gave up at moves
-  // of half the particles until the threads took a part each: in 5,000
-  // steps of the 10k dam break from t = 0.014 s, as the flow splashes, that
-  // sent 3,844 sorts to the counting sort, 124 now; sort 27 -> 19 us a step
-  // on 2 threads, 31 -> 16 on one.)
+  // Where the counting sort costs less: many movers (n / 64 or more). Then
+  // the next tries wait 1, 3 or 7 sorts. However far the movers shift the
+  // stayers (each those between its old place and its new one by one: at 10k
+  // particles in the dam break about 60 each, at 1M over a thousand), each
+  // entry moves once at most, in runs, split between the threads
+  // (MoveParts). Measured on the 10k dam break, seed-float, 2 threads: up to
+  // n / 16 movers and moves of up to half the particles (the rule before the
+  // parts), 5,000 fixed steps from t = 0.014 s as the flow splashes took
+  // 27.9 us a step to sort and 1 s with adaptive steps (larger, so more
+  // movers a step) 0.51-0.54 s; with no limit on the moves, 19.1 us but
+  // 0.55-0.56 s (the resort's planning and jumps grow with the movers); up to
+  // n / 64 movers and no limit on the moves, 19.5 us and 0.48-0.53 s.
   auto give_up = [&] {
     moves_.clear();
     jumps_.clear();

@@ -85,7 +85,7 @@ struct ParticleSet {
   }
 
   void resize(Index n) {
-    jumped_ids_.reserve(static_cast<std::size_t>(n) / 16 + 1);  // apply_moves, sized here
+    jumped_ids_.reserve(static_cast<std::size_t>(n) / 64 + 1);  // apply_moves, sized here
     x.resize(n);
     v.resize(n);
     a.resize(n);
@@ -120,19 +120,19 @@ struct ParticleSet {
   // view shares the arrays (a step moves few particles to another cell, so
   // the moves touch a few percent of them), else through a permutation in
   // `order`. The jumping entries wait in the spare buffers of x and v (the
-  // ones begin_write() fills) and in jumped_ids_ (kept at n / 16 + 1
+  // ones begin_write() fills) and in jumped_ids_ (kept at n / 64 + 1
   // entries, the most jumps a sort makes). In place, each of the moves'
   // parts (disjoint ranges) is applied by a thread of its own: the one that
   // takes that range in the loops that follow.
   void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps,
                    const MoveParts& parts, std::vector<Index>& order, int threads) {
     const std::size_t n = static_cast<std::size_t>(size());
-    if (!(x.exclusive() && v.exclusive() && id.exclusive()) || jumps.size() > n / 16 + 1) {
+    if (!(x.exclusive() && v.exclusive() && id.exclusive()) || jumps.size() > n / 64 + 1) {
       moves_to_order(blocks, jumps, size(), order);
       permute_state(order, threads);
       return;
     }
-    jumped_ids_.resize(n / 16 + 1);
+    jumped_ids_.resize(n / 64 + 1);
     Vec2* const xs = x.data();
     Vec2* const vs = v.data();
     Id* const is = id.data();
