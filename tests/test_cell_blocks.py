@@ -187,10 +187,18 @@ int main() {
 """
 
 
-def test_pair_blocks_split_the_pairs_evenly(tmp_path):
-    out = build_and_run(tmp_path, PAIR_DRIVER, "-march=native", "-fopenmp", units=("grid.cpp",))
+def run_cell_pairs_driver(tmp_path, source):
+    """Build and run a driver of the cell clusters for this CPU (-march=native,
+    OpenMP); it prints "no cell clusters" where they do not compile (no AVX-512F
+    and VL), and the test is skipped there."""
+    out = build_and_run(tmp_path, source, "-march=native", "-fopenmp", units=("grid.cpp",))
     assert out.returncode == 0, out.stdout + out.stderr
     if "no cell clusters" in out.stdout:
         pytest.skip("the cell clusters need AVX-512F and VL")
+    return out
+
+
+def test_pair_blocks_split_the_pairs_evenly(tmp_path):
+    out = run_cell_pairs_driver(tmp_path, PAIR_DRIVER)
     assert "wrong in all: 0" in out.stdout, out.stdout
     assert "column, 2 blocks asked: 2 made" in out.stdout, out.stdout

@@ -4,10 +4,9 @@ square root and division, in a small program: the same forces to round-off,
 including coincident particles (r = 0, no force) and pairs just inside h."""
 from __future__ import annotations
 
-import pytest
 import sphfluid
 from conftest import ROOT
-from test_walls_native import build_and_run
+from test_cell_blocks import run_cell_pairs_driver
 
 DRIVER = r"""
 #include <algorithm>
@@ -72,10 +71,7 @@ int main() {
 
 
 def test_recip_root_gives_the_forces_of_the_root_and_division(tmp_path):
-    out = build_and_run(tmp_path, DRIVER, "-march=native", "-fopenmp", units=("grid.cpp",))
-    assert out.returncode == 0, out.stdout + out.stderr
-    if "no cell clusters" in out.stdout:
-        pytest.skip("the cell clusters need AVX-512F and VL")
+    out = run_cell_pairs_driver(tmp_path, DRIVER)
     assert "0 not finite" in out.stdout, out.stdout
 
 
