@@ -170,6 +170,8 @@ def run_case(n_target: int, threads: int, steps: int, warmup: int, method: str =
             # the precision asked for, and the one that ran (float needs the cell clusters)
             "pairs": pair_precision,
             "pairs_ran": "float" if sim._solver.float_pairs else "double",
+            # the double pair forces' 1/r: Newton steps (Intel CPUs) or root and division
+            "recip_root": sim._solver.recip_root,
             "wall": wall,
             "steps_per_s": steps / wall, "pps": steps * n / wall,
             "ns_per_ps": 1e9 * wall / (steps * n),
@@ -192,7 +194,10 @@ def table(rows: list[dict], command: str) -> str:
     lines = [
         (f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, "
          f"-march=native {'on' if info['march_native'] else 'off'}, OpenMP "
-         f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}."),
+         f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}. "
+         "The seed's double pair forces take 1/r from "
+         + ("rsqrt14 and two Newton steps" if rows[0].get("recip_root")
+            else "a square root and a division") + " on this CPU (Solver.recip_root)."),
         f"Command: `{command}`",
         "",
         (f"Each figure is the median of {rows[0]['repeats']} interleaved run(s); the range is "
