@@ -314,28 +314,6 @@ class CellPairs {
            (row_pairs_.capacity() + cost_below_.capacity()) * sizeof(std::int64_t);
   }
 
-  // The pair passes' blocks, as many as the density pass's, cut where the
-  // cost of the rows below reaches k / count of the whole: a row costs the
-  // pairs the density pass counted in it, plus kParticleCost for each of its
-  // particles (so that rows of lone particles still split). A pair pass's time
-  // follows its pairs, which are not spread evenly over the particles: the
-  // compressed rows near the floor hold more than those at the free surface.
-  // Like the density pass's blocks, these depend on the particles alone, not
-  // on the thread count.
-  void cut_pair_blocks(const CellGrid& grid) {
-    const Index nx = grid.nx(), ny = grid.ny();
-    const Index* start = grid.cell_starts();
-    if (static_cast<Index>(row_pairs_.size()) != ny) return;  // (no density pass on this grid)
-    cost_below_.resize(static_cast<std::size_t>(ny) + 1);
-    std::int64_t sum = 0;
-    for (Index y = 0; y < ny; ++y) {
-      cost_below_[y] = sum;
-      sum += row_pairs_[y] + kParticleCost * std::int64_t(start[(y + 1) * nx] - start[y * nx]);
-    }
-    cost_below_[ny] = sum;
-    cut_rows(ny, count_, sum, [&](Index y) { return cost_below_[y]; }, pair_rows_);
-  }
-
 #if SPHFLUID_CELL_PAIRS
   // After a block's pass its particles' sums are complete (no other block
   // adds to them): finish(first, last) is called on them by the same thread,
@@ -857,6 +835,28 @@ class CellPairs {
 #endif
 
  private:
+  // The pair passes' blocks, as many as the density pass's, cut where the
+  // cost of the rows below reaches k / count of the whole: a row costs the
+  // pairs the density pass counted in it, plus kParticleCost for each of its
+  // particles (so that rows of lone particles still split). A pair pass's time
+  // follows its pairs, which are not spread evenly over the particles: the
+  // compressed rows near the floor hold more than those at the free surface.
+  // Like the density pass's blocks, these depend on the particles alone, not
+  // on the thread count.
+  // row_pairs_ holds the density pass's counts for this grid's ny rows.
+  void cut_pair_blocks(const CellGrid& grid) {
+    const Index nx = grid.nx(), ny = grid.ny();
+    const Index* start = grid.cell_starts();
+    cost_below_.resize(static_cast<std::size_t>(ny) + 1);
+    std::int64_t sum = 0;
+    for (Index y = 0; y < ny; ++y) {
+      cost_below_[y] = sum;
+      sum += row_pairs_[y] + kParticleCost * std::int64_t(start[(y + 1) * nx] - start[y * nx]);
+    }
+    cost_below_[ny] = sum;
+    cut_rows(ny, count_, sum, [&](Index y) { return cost_below_[y]; }, pair_rows_);
+  }
+
   // A particle's cost in a pair pass, in pairs (cut_pair_blocks). The 10k dam
   // break's two blocks, timed on one thread: 1 splits the pair sums evenly
   // (94 against 94 ms over 1,100 steps); 4 leaves 95 against 92, and the

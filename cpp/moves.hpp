@@ -54,6 +54,12 @@ struct MoveParts {
   std::vector<Index> at;                 // parts + 1 cut places: 0, ..., n
   std::vector<std::size_t> block, jump;  // parts + 1 list indices each
   int count() const { return static_cast<int>(at.size()) - 1; }
+  // Whether a cut falls inside the entries (more than one part holds any).
+  bool split() const {
+    for (int t = 1; t < count(); ++t)
+      if (at[t] > at.front() && at[t] < at.back()) return true;
+    return false;
+  }
   // Apply part t to a, with tmp as apply_moves' (jumps().size() entries).
   template <class T>
   void apply(int t, const std::vector<Move>& blocks, const std::vector<Move>& jumps, T* a,

@@ -442,14 +442,7 @@ void Solver::sort_by_cell() {
       break;
   }
   ++sort_counts_[static_cast<int>(how)];
-  if (how == CellGrid::Reorder::kMoves) {
-    const MoveParts& parts = grid_.move_parts();
-    for (int t = 1; t < parts.count(); ++t)
-      if (parts.at[t] > 0 && parts.at[t] < size()) {
-        ++sort_counts_[3];
-        break;
-      }
-  }
+  if (how == CellGrid::Reorder::kMoves && grid_.move_parts().split()) ++sort_counts_[3];
   in_sort_order_ = true;
   mark(kSort);
 }

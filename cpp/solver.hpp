@@ -106,8 +106,8 @@ class Solver {
   const std::array<double, kNumPhases>& phase_seconds() const { return phase_seconds_; }
   // Sorts since the solver was made, by what they did to the order: none
   // changed, few particles moved in place, or a full permutation
-  // (CellGrid::Reorder).
-  // Sorts by CellGrid::Reorder, then those of kMoves cut into parts for the threads.
+  // (CellGrid::Reorder); then how many of the moves were cut into parts for
+  // the threads.
   const std::array<std::int64_t, 4>& sort_counts() const { return sort_counts_; }
   void reset_phase_seconds() { phase_seconds_.fill(0.0); }
   // Heap bytes held by the solver's arrays (capacity included), by part.
