@@ -10,15 +10,15 @@
 #include <string>
 #include <vector>
 
-#include "cell_pairs.hpp"
-#include "grid.hpp"
-#include "kernels.hpp"
-#include "params.hpp"
-#include "particles.hpp"
-#include "periodic.hpp"
-#include "surface_energy.hpp"
-#include "walls.hpp"
-#include "wendland.hpp"
+#include "neighbours/cell_pairs.hpp"
+#include "neighbours/grid.hpp"
+#include "terms/kernels.hpp"
+#include "core/params.hpp"
+#include "core/particles.hpp"
+#include "boundary/periodic.hpp"
+#include "methods/wcsph/surface_energy.hpp"
+#include "boundary/walls.hpp"
+#include "terms/wendland.hpp"
 
 namespace sphfluid {
 

@@ -18,7 +18,7 @@ DRIVER = r"""
 #include <algorithm>
 #include <cstdio>
 #include <vector>
-#include "cell_pairs.hpp"
+#include "neighbours/cell_pairs.hpp"
 using namespace sphfluid;
 
 int check(const std::vector<Vec2>& x0, Real h, Index count, const char* name) {
@@ -78,7 +78,7 @@ int main() {
 
 
 def test_blocks_split_the_particles_evenly_at_row_boundaries(tmp_path):
-    out = build_and_run(tmp_path, DRIVER, units=("grid.cpp",))
+    out = build_and_run(tmp_path, DRIVER, units=("neighbours/grid.cpp",))
     assert out.returncode == 0, out.stdout + out.stderr
     assert "wrong in all: 0" in out.stdout
     assert "column, 10 blocks asked: 10 made" in out.stdout, out.stdout
@@ -89,7 +89,7 @@ PAIR_DRIVER = r"""
 #include <cmath>
 #include <cstdio>
 #include <vector>
-#include "cell_pairs.hpp"
+#include "neighbours/cell_pairs.hpp"
 using namespace sphfluid;
 
 #if SPHFLUID_CELL_PAIRS
@@ -191,7 +191,7 @@ def run_cell_pairs_driver(tmp_path, source):
     """Build and run a driver of the cell clusters for this CPU (-march=native,
     OpenMP); it prints "no cell clusters" where they do not compile (no AVX-512F
     and VL), and the test is skipped there."""
-    out = build_and_run(tmp_path, source, "-march=native", "-fopenmp", units=("grid.cpp",))
+    out = build_and_run(tmp_path, source, "-march=native", "-fopenmp", units=("neighbours/grid.cpp",))
     assert out.returncode == 0, out.stdout + out.stderr
     if "no cell clusters" in out.stdout:
         pytest.skip("the cell clusters need AVX-512F and VL")

@@ -24,9 +24,9 @@ DRIVER = r"""
 #include <cmath>
 #include <cstdio>
 #include <vector>
-#include "grid.hpp"
-#include "kernels.hpp"
-#include "wendland.hpp"
+#include "neighbours/grid.hpp"
+#include "terms/kernels.hpp"
+#include "terms/wendland.hpp"
 using namespace sphfluid;
 
 template <class W>
@@ -145,7 +145,7 @@ def build_and_run(tmp_path, flags):
     exe = tmp_path / "driver"
     cpp = ROOT / "cpp"
     cmd = [cxx, "-std=c++17", *flags, f"-I{cpp}", f"-isystem{eigen}", str(src),
-           str(cpp / "grid.cpp"), "-o", str(exe)]
+           str(cpp / "neighbours" / "grid.cpp"), "-o", str(exe)]
     try:  # with the threads where the compiler has OpenMP, as the extension
         subprocess.run(cmd + ["-fopenmp"], check=True, capture_output=True, text=True)
     except subprocess.CalledProcessError:

@@ -16,7 +16,7 @@ DRIVER = r"""
 #include <cmath>
 #include <cstdio>
 #include <vector>
-#include "cell_pairs.hpp"
+#include "neighbours/cell_pairs.hpp"
 using namespace sphfluid;
 
 int main() {

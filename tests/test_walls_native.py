@@ -17,7 +17,7 @@ from test_grid_filter import eigen_include
 DRIVER = r"""
 #include <cstdio>
 #include <vector>
-#include "walls.hpp"
+#include "boundary/walls.hpp"
 using namespace sphfluid;
 
 int main() {
@@ -49,8 +49,8 @@ int main() {
 """
 
 
-def build_and_run(tmp_path, source, *flags, units=("walls.cpp",)):
-    """Compile a driver with the given units of cpp/ (walls.cpp unless said) and run it
+def build_and_run(tmp_path, source, *flags, units=("boundary/walls.cpp",)):
+    """Compile a driver with the given units of cpp/ (boundary/walls.cpp unless said) and run it
     (skips without a compiler or Eigen)."""
     cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
     eigen = eigen_include()
@@ -76,7 +76,7 @@ DRIVER8 = r"""
 #include <cstdio>
 #include <limits>
 #include <vector>
-#include "walls.hpp"
+#include "boundary/walls.hpp"
 using namespace sphfluid;
 
 int main() {

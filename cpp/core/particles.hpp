@@ -7,9 +7,9 @@
 #include <memory>
 #include <vector>
 
-#include "moves.hpp"
-#include "parallel.hpp"
-#include "types.hpp"
+#include "neighbours/moves.hpp"
+#include "core/parallel.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

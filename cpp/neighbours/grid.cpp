@@ -1,6 +1,6 @@
 // Counting sort of particles into cells (the neighbour search is in grid.hpp).
 // Reads positions; writes the permutation and the cell ranges.
-#include "grid.hpp"
+#include "neighbours/grid.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "surface_energy.hpp"
+#include "methods/wcsph/surface_energy.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 #if defined(__AVX512F__)
 #include <immintrin.h>

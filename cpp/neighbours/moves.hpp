@@ -7,7 +7,7 @@
 #include <initializer_list>
 #include <vector>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

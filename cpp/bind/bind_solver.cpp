@@ -4,7 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "bind_arrays.hpp"
+#include "bind/arrays.hpp"
 #include "solver.hpp"
 
 namespace py = pybind11;

@@ -3,7 +3,7 @@
 // re-normalised for 2D. Built once from h; functions take r^2 where they can.
 #pragma once
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 #if defined(__AVX512F__)
 #include <immintrin.h>

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <string>
 
-#include "bind_arrays.hpp"
-#include "kernels.hpp"
-#include "wendland.hpp"
-#include "walls.hpp"
+#include "bind/arrays.hpp"
+#include "terms/kernels.hpp"
+#include "terms/wendland.hpp"
+#include "boundary/walls.hpp"
 
 namespace py = pybind11;
 using namespace sphfluid;

@@ -34,9 +34,9 @@
 
 #include <vector>
 
-#include "periodic.hpp"
-#include "types.hpp"
-#include "wendland.hpp"
+#include "boundary/periodic.hpp"
+#include "core/types.hpp"
+#include "terms/wendland.hpp"
 
 namespace sphfluid {
 

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "types.hpp"
+#include "core/types.hpp"
 #if defined(__AVX512F__)
 #include <immintrin.h>
 #endif

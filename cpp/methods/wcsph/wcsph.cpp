@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "solver.hpp"
-#include "wendland.hpp"
+#include "terms/wendland.hpp"
 
 namespace sphfluid {
 

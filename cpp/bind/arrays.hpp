@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "particles.hpp"
-#include "types.hpp"
-#include "walls.hpp"
+#include "core/particles.hpp"
+#include "core/types.hpp"
+#include "boundary/walls.hpp"
 
 namespace sphfluid::bind {
 

@@ -1,6 +1,6 @@
 // Wall geometry: segment construction, projection, path intersection, the
 // segment lookup grid, ghost ownership at shared end points, and reflection.
-#include "walls.hpp"
+#include "boundary/walls.hpp"
 
 #include <algorithm>
 #include <cmath>

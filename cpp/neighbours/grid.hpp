@@ -12,10 +12,10 @@
 #include <immintrin.h>
 #endif
 
-#include "moves.hpp"
-#include "parallel.hpp"
-#include "periodic.hpp"
-#include "types.hpp"
+#include "neighbours/moves.hpp"
+#include "core/parallel.hpp"
+#include "boundary/periodic.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

@@ -1,7 +1,7 @@
 // The extension module sphfluid._core: only calls the bind_* functions.
 #include <pybind11/pybind11.h>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 namespace py = pybind11;
 

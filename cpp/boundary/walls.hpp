@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

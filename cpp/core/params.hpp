@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "types.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 

@@ -34,8 +34,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "grid.hpp"
-#include "types.hpp"
+#include "neighbours/grid.hpp"
+#include "core/types.hpp"
 
 namespace sphfluid {
 
