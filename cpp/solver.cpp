@@ -29,6 +29,25 @@ std::string fmt(Real x) {
 
 std::string fmt(const Vec2& u) { return "(" + fmt(u.x()) + ", " + fmt(u.y()) + ")"; }
 
+// The seed's pair term (eqs. 14, 17) as the cell clusters compute it: with
+// d = max(h - r, 0), t = (p_i + p_j) d^2 / r r_ij + l d (v_j - v_i) (0 where
+// r = 0); i gets t / rho_j, j gets -t / rho_i, and s = -m/2 spiky_grad times
+// the sums is the force density (l = eta m visc_lap / s).
+template <bool Viscosity>
+void seed_pair(Real h, Real l, Real p_sum, const Vec2& r, Real r2, const Vec2& dv, Real& tx,
+               Real& ty) {
+  const Real rl = std::sqrt(r2), hr = h - rl, d = hr < 0 ? Real(0) : hr;
+  const Real g = r2 > 0 ? d * d / rl : Real(0);
+  const Real fp = p_sum * g;
+  tx = fp * r.x();
+  ty = fp * r.y();
+  if constexpr (Viscosity) {
+    const Real lap = l * d;
+    tx = lap * dv.x() + tx;
+    ty = lap * dv.y() + ty;
+  }
+}
+
 }  // namespace
 
 Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector<Vec2> velocities,
@@ -514,20 +533,21 @@ void Solver::seed_forces_by_cells(Finish finish) {
       const Real cw = grid_.cell_width();
       const Real s = -Real(0.5) * params_.mass * kern_.spiky_grad * cw * cw;
       const Real l = params_.eta * params_.mass * kern_.visc_lap * cw / (params_.rho0 * s);
-      cell_pairs_.seed_forces_float<Viscosity>(grid_, floats_, kern_.h, s, l, ps_.a.data(),
-                                               team(), finish);
+      force_scale_ = s;
+      cell_pairs_.seed_forces_float<Viscosity>(grid_, floats_, kern_.h, l, ps_.a.data(), team(),
+                                               finish);
       return;
     }
-    const Real grad_c = Real(0.5) * params_.mass * kern_.spiky_grad;
-    const Real lap_c = params_.eta * params_.mass * kern_.visc_lap;
+    force_scale_ = seed_scale();
+    const Real l = seed_lap();
     if (recip_root_) {
       cell_pairs_.seed_forces<Viscosity, true>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
-                                               inv_rho_.data(), kern_.h, grad_c, lap_c,
-                                               ps_.a.data(), team(), finish);
+                                               inv_rho_.data(), kern_.h, l, ps_.a.data(), team(),
+                                               finish);
     } else {
       cell_pairs_.seed_forces<Viscosity, false>(grid_, ps_.x.data(), ps_.v.data(), ps_.p.data(),
-                                                inv_rho_.data(), kern_.h, grad_c, lap_c,
-                                                ps_.a.data(), team(), finish);
+                                                inv_rho_.data(), kern_.h, l, ps_.a.data(), team(),
+                                                finish);
     }
     return;
   }
@@ -635,10 +655,11 @@ void Solver::seed_pairs_once() {
   const Real* p = ps_.p.data();
   const Real* inv_rho = inv_rho_.data();
   Vec2* a = ps_.a.data();
-  const Real m = params_.mass, half_m = Real(0.5) * m, eta_m = params_.eta * m;
+  const Real m = params_.mass, h = kern_.h, l = seed_lap();
   const Index block = pair_block(), blocks = (n + block - 1) / block;
   if (!half_lists_ || nbrs_.rows() != n)
     throw std::logic_error("the pair-once loop needs this evaluation's half lists");
+  force_scale_ = seed_scale();
   // The colour field's sums (eqs. 18-19), pairwise like the forces.
   [[maybe_unused]] Vec2* normal = nullptr;
   [[maybe_unused]] Real* lap_c = nullptr;
@@ -673,21 +694,17 @@ void Solver::seed_pairs_once() {
         // blocks is in both rows, and each side takes its own share.
         const bool mine = j > i && j < hi;
         const Vec2 r = xi - x[j];
-        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2), d = kern_.h - rl;
-        // -m (p_i + p_j) / (2 rho_j) grad W_spiky(r) for i; for j the same
-        // with 1 / rho_i and r_ji = -r (seed eq. 14)
-        const Real grad = (d > 0 && rl > 0) ? kern_.spiky_grad * d * d / rl : Real(0);
-        const Real fp = half_m * (pi + p[j]) * grad;
+        const Real r2 = r.squaredNorm();
+        Real tx, ty;  // seed eqs. 14, 17
+        seed_pair<Viscosity>(h, l, pi + p[j], r, r2, Viscosity ? Vec2(v[j] - vi) : Vec2(), tx,
+                             ty);
         const Real ir_j = inv_rho[j];
-        fi -= (fp * ir_j) * r;
-        Vec2 fj = (fp * ir_i) * r;
-        if constexpr (Viscosity) {  // eta m / rho_j lap W (v_j - v_i)   (eq. 17)
-          const Real lap = d > 0 ? eta_m * kern_.visc_lap * d : Real(0);
-          const Vec2 dv = v[j] - vi;
-          fi += (lap * ir_j) * dv;
-          fj -= (lap * ir_i) * dv;
+        fi.x() = ir_j * tx + fi.x();
+        fi.y() = ir_j * ty + fi.y();
+        if (mine) {
+          a[j].x() = a[j].x() - ir_i * tx;
+          a[j].y() = a[j].y() - ir_i * ty;
         }
-        if (mine) a[j] += fj;
         if constexpr (Tension) {  // m / rho_j grad W and m / rho_j lap W (eqs. 18-19)
           const Vec2 gw = kern_.grad_poly6(r, r2);
           const Real lw = kern_.lap_poly6(r2);
@@ -708,46 +725,49 @@ void Solver::seed_pairs_once() {
   }
 }
 
-// The wall ghosts' pressure and viscosity on a particle with pressure pi and
-// velocity vi, subtracted from f. The pair (p_i + p_ghost) / 2 with both at the
-// positive part of p_i: the wall pushes back as hard as the fluid presses, and
-// never pulls.
+// The wall ghosts' pressure and viscosity on a particle (seed 4.1) as the
+// pair term (eqs. 14, 17) with ghosts of mass m_g and density rho_g, at rest,
+// whose pressure, like the particle's in the pair, is the positive part of
+// p_i: the wall pushes back as hard as the fluid presses, and never pulls.
+// The sum in the units of the pair sums (times seed_scale(): force density).
 template <unsigned F>
-void Solver::add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const {
-  const Real m_ghost = params_.ghost_mass_ratio * params_.mass;
-  const Real rho_ghost = params_.ghost_density_ratio * params_.rho0;
-  const Real p_wall = std::max(pi, Real(0));
+Vec2 Solver::wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& vi) const {
+  const Real w = params_.ghost_mass_ratio / (params_.ghost_density_ratio * params_.rho0);
+  const Real p_sum = 2 * std::max(pi, Real(0)), h = kern_.h, l = seed_lap();
+  Real sx = 0, sy = 0;
   for (const Vec2& r : ghosts) {
-    const Real rl = r.norm();
-    f -= (m_ghost * p_wall / rho_ghost) * kern_.grad_spiky(r, rl);
-    if constexpr ((F & kViscosity) != 0)
-      f -= (params_.eta * m_ghost / rho_ghost * kern_.lap_visc(rl)) * vi;  // the wall is at rest
+    Real tx, ty;
+    seed_pair<(F & kViscosity) != 0>(h, l, p_sum, r, r.squaredNorm(), -vi, tx, ty);
+    sx += tx;
+    sy += ty;
   }
+  return Vec2(w * sx, w * sy);
 }
 
 // Where the fluid pairs are summed once (without tension), a[] holds their
-// force densities: for the particles [i0, i1), on the calling thread, the
-// walls' share first, for the particles that have ghosts, then a = f / rho + g
-// for all, in a loop the compiler vectorises (the same arithmetic as the
-// gather loop of compute_accelerations).
+// pair sums: for the particles [i0, i1), on the calling thread, the walls'
+// share first, for the particles that have ghosts, then a = s a / rho + g for
+// all (s = force_scale_, the pair sums' factor), in a loop the compiler
+// vectorises.
 template <unsigned F>
 void Solver::finish_accelerations(Index i0, Index i1) {
   Vec2* a = ps_.a.data();
   const Real* rho = ps_.rho.data();
+  const Real s = force_scale_;
   if constexpr ((F & kWalls) != 0) {
     const Real* p = ps_.p.data();
     const Vec2* v = ps_.v.data();
+    const Real ratio = seed_scale() / s;  // the walls' sum in the pair sums' units
     ghosts_.for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
-      Vec2 f = a[i];
-      add_wall_forces<F>(f, ghosts, p[i], v[i]);
-      a[i] = f;
+      const Vec2 w = wall_sum<F>(ghosts, p[i], v[i]);
+      a[i] = Vec2(ratio * w.x() + a[i].x(), ratio * w.y() + a[i].y());
     });
   }
   const Vec2 g = params_.gravity;
   Real* ad = reinterpret_cast<Real*>(a);
   for (Index i = i0; i < i1; ++i) {
-    ad[2 * i] = ad[2 * i] / rho[i] + g.x();
-    ad[2 * i + 1] = ad[2 * i + 1] / rho[i] + g.y();
+    ad[2 * i] = s * ad[2 * i] / rho[i] + g.x();
+    ad[2 * i + 1] = s * ad[2 * i + 1] / rho[i] + g.y();
   }
 }
 
@@ -787,16 +807,18 @@ void Solver::compute_accelerations() {
   const Real* p = ps_.p.data();
   const Real* inv_rho = inv_rho_.data();
   Vec2* a = ps_.a.data();
-  [[maybe_unused]] const Real m = params_.mass, eta = params_.eta, sigma = params_.sigma;
+  [[maybe_unused]] const Real m = params_.mass, sigma = params_.sigma;
   [[maybe_unused]] const Real threshold = params_.effective_surface_threshold();
   [[maybe_unused]] const Real lap_self = kern_.lap_poly6(0);
+  const Real h = kern_.h, l = seed_lap(), s = seed_scale();
+  force_scale_ = s;
   const Vec2 g = params_.gravity;
 #pragma omp parallel for schedule(static) num_threads(team())
   for (Index i = 0; i < n; ++i) {
     const Vec2 xi = x[i];
     const Real pi = p[i], rhoi = rho[i];
-    Vec2 f = Vec2::Zero();
-    if constexpr (kPairsOnce) f = a[i];
+    Vec2 sum = Vec2::Zero();  // the pair sums, times s the force density
+    if constexpr (kPairsOnce) sum = a[i];
     [[maybe_unused]] Vec2 vi = v[i];
     [[maybe_unused]] Vec2 normal = Vec2::Zero();  // n_i = grad c_i   (eq. 18)
     [[maybe_unused]] Real lap_c = 0;              // lap c_i
@@ -811,19 +833,20 @@ void Solver::compute_accelerations() {
     if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
       const Vec2 r = separation<F>(xi, x[j]);
       const Real r2 = r.squaredNorm();
-      const Real rl = std::sqrt(r2);
       const Real inv_rho_j = inv_rho[j];
-      // m (p_i + p_j) / (2 rho_j), with 1 / rho_j stored by the density pass
-      f -= (Real(0.5) * m * (pi + p[j]) * inv_rho_j) * kern_.grad_spiky(r, rl);
-      if constexpr ((F & kViscosity) != 0)
-        f += (eta * m * inv_rho_j * kern_.lap_visc(rl)) * (v[j] - vi);
+      constexpr bool kVisc = (F & kViscosity) != 0;
+      Real tx, ty;  // seed eqs. 14, 17
+      seed_pair<kVisc>(h, l, pi + p[j], r, r2, kVisc ? Vec2(v[j] - vi) : Vec2(), tx, ty);
+      sum.x() = inv_rho_j * tx + sum.x();
+      sum.y() = inv_rho_j * ty + sum.y();
       if constexpr ((F & kSurfaceTension) != 0) {
         const Real vol = m * inv_rho_j;
         normal += vol * kern_.grad_poly6(r, r2);
         lap_c += vol * kern_.lap_poly6(r2);
       }
     }
-    if constexpr ((F & kWalls) != 0) add_wall_forces<F>(f, ghosts_.row(i), pi, vi);
+    if constexpr ((F & kWalls) != 0) sum += wall_sum<F>(ghosts_.row(i), pi, vi);
+    Vec2 f = s * sum;
     if constexpr ((F & kSurfaceTension) != 0) {
       const Real norm = normal.norm();
       if (norm > threshold) f -= (sigma * lap_c / norm) * normal;  // eq. 20

@@ -172,8 +172,11 @@ class Solver {
   template <unsigned F> void finish_eos(Index i0, Index i1);
   void add_ghost_density(Real& rho, Row<Vec2> ghosts) const;
   template <unsigned F> void finish_accelerations(Index i0, Index i1);
-  template <unsigned F>
-  void add_wall_forces(Vec2& f, Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
+  template <unsigned F> Vec2 wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
+  // The seed's pair sums times seed_scale() are force densities (-m/2 spiky_grad),
+  // and seed_lap() is the viscosity's factor in them (eta m visc_lap / seed_scale()).
+  Real seed_scale() const { return -Real(0.5) * params_.mass * kern_.spiky_grad; }
+  Real seed_lap() const { return params_.eta * params_.mass * kern_.visc_lap / seed_scale(); }
   template <bool Viscosity> void wcsph_forces_by_cells();
   // r_a - r_b: the minimum image when the step is specialised on kPeriodic.
   template <unsigned F> Vec2 separation(const Vec2& a, const Vec2& b) const {
@@ -221,6 +224,7 @@ class Solver {
   // The seed's pair forces in float (SimParams::float_pairs, where the cell
   // clusters run): the per-particle floats they read.
   bool float_pairs_ = false;
+  Real force_scale_ = 1;  // the factor of this evaluation's pair sums in a[] (finish_accelerations)
   SeedFloats floats_;
   // The seed's double pair forces by cell clusters take 1/r from rsqrt14 and
   // Newton steps on this CPU (prefers_recip_root in cell_pairs.hpp).

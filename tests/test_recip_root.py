@@ -51,9 +51,9 @@ int main() {
   };
   cp.density(grid, x.data(), h, 1.0, 1.0, One{}, rho.data(), 1);  // (cuts the pair blocks)
   std::vector<Vec2> a0(n), a1(n);
-  cp.seed_forces<true, false>(grid, x.data(), v.data(), p.data(), ir.data(), h, -1.5, 0.7,
+  cp.seed_forces<true, false>(grid, x.data(), v.data(), p.data(), ir.data(), h, 0.7,
                               a0.data(), 2);
-  cp.seed_forces<true, true>(grid, x.data(), v.data(), p.data(), ir.data(), h, -1.5, 0.7,
+  cp.seed_forces<true, true>(grid, x.data(), v.data(), p.data(), ir.data(), h, 0.7,
                              a1.data(), 2);
   double largest = 0, diff = 0;
   int bad = 0;

@@ -493,9 +493,10 @@ class CellPairs {
     }, finish);
   }
 
-  // The seed's pressure and viscosity pair terms (eqs. 14, 17) as force
-  // densities: for i, -m (p_i + p_j) / (2 rho_j) grad W_spiky(r_ij) + eta m /
-  // rho_j lap W_visc (v_j - v_i); for j the same with 1 / rho_i and r_ji = -r_ij.
+  // The seed's pressure and viscosity pair terms (eqs. 14, 17): with
+  // d = max(h - r, 0), t = (p_i + p_j) d^2 / r r_ij + l d (v_j - v_i); i gets
+  // t / rho_j, j gets -t / rho_i, and the sums times s = -m/2 spiky_grad are
+  // the force densities (l = eta m visc_lap / s).
   // With RecipRoot, 1/r comes from rsqrt14 and two Newton steps (a few ulp
   // off the correctly rounded root) instead of a square root and a division:
   // prefers_recip_root() says where that pays.
@@ -506,7 +507,7 @@ class CellPairs {
     const Vec2* v;
     const Real* p;
     const Real* inv_rho;
-    __m512d h, grad_c, lap_c;  // h, m/2 spiky_grad, eta m visc_lap
+    __m512d h, lap_c;  // h, l
     struct Data {
       __m512d p, ir, vx, vy;
     };
@@ -542,13 +543,12 @@ class CellPairs {
         d = _mm512_max_pd(_mm512_sub_pd(h, rl), zero);
         grad = _mm512_maskz_div_pd(nz, _mm512_mul_pd(d, d), rl);
       }
-      // fp = m/2 (p_i + p_j) spiky_grad d^2 / r
-      const __m512d fp =
-          _mm512_mul_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), dj.p), grad_c), grad);
-      // t = lap (v_j - v_i) - fp r: i gets t / rho_j, j gets -t / rho_i
+      // fp = (p_i + p_j) d^2 / r
+      const __m512d fp = _mm512_mul_pd(_mm512_add_pd(_mm512_set1_pd(p[i]), dj.p), grad);
+      // t = fp r + lap (v_j - v_i): i gets t / rho_j, j gets -t / rho_i
       // (lanes outside the support are zero by mask, not by product)
-      __m512d tx = _mm512_maskz_fnmadd_pd(in, fp, dx, zero);
-      __m512d ty = _mm512_maskz_fnmadd_pd(in, fp, dy, zero);
+      __m512d tx = _mm512_maskz_mul_pd(in, fp, dx);
+      __m512d ty = _mm512_maskz_mul_pd(in, fp, dy);
       if constexpr (Viscosity) {
         const __m512d lap = _mm512_maskz_mul_pd(in, lap_c, d);
         const __m512d dvx = _mm512_sub_pd(dj.vx, _mm512_set1_pd(v[i].x()));
@@ -720,11 +720,12 @@ class CellPairs {
   // and r^ = rho0 / rho, f_i = s sum_j r^_j t_ij and f_j = -s sum_i r^_i t_ij,
   // t = (p^_i + p^_j) (hc - |u|)^2 / |u| u + l (hc - |u|) (v_j - v_i), where
   // s = -m/2 spiky_grad w^2 and l = eta m visc_lap w / (rho0 s) (eqs. 14, 17).
-  // The j shares go to f.jx and f.jy (zeroed by fill_floats), and into a with
-  // the factor s when the block is done.
+  // a gets the sums without the factor s (the finish applies it); the j
+  // shares go to f.jx and f.jy (zeroed by fill_floats), and into a when the
+  // block is done.
   template <bool Viscosity, class Finish>
-  void seed_forces_float(const CellGrid& grid, SeedFloats& f, Real h, Real s, Real l,
-                         Vec2* a, int threads, Finish finish) const {
+  void seed_forces_float(const CellGrid& grid, SeedFloats& f, Real h, Real l, Vec2* a,
+                         int threads, Finish finish) const {
     const Index nx = grid.nx();
     const Index* start = grid.cell_starts();
     const __m256 zero = _mm256_setzero_ps();
@@ -735,7 +736,7 @@ class CellPairs {
     const __m256 hv = _mm256_set1_ps(float_not_above(hc));
     const __m256 h2 = _mm256_set1_ps(float_not_above(hc * hc));
     const __m256 lap_c = _mm256_set1_ps(static_cast<float>(l));
-    const __m512d scale = _mm512_set1_pd(s);
+    const __m512d one = _mm512_set1_pd(1);
     const float *ux = f.ux.data(), *uy = f.uy.data(), *vx = f.vx.data(), *vy = f.vy.data();
     const float *pp = f.p.data(), *ir = f.ir.data();
     float *jx = f.jx.data(), *jy = f.jy.data();
@@ -743,8 +744,8 @@ class CellPairs {
     // A block's j shares are all in once its tiles are done.
     auto add_shares_then_finish = [&](Index i0, Index i1) {
       for (Index i = i0; i < i1; ++i) {
-        ad[2 * i] += s * static_cast<Real>(jx[i]);
-        ad[2 * i + 1] += s * static_cast<Real>(jy[i]);
+        ad[2 * i] += static_cast<Real>(jx[i]);
+        ad[2 * i + 1] += static_cast<Real>(jy[i]);
       }
       finish(i0, i1);
     };
@@ -813,7 +814,8 @@ class CellPairs {
         wx[q] = q < k ? _mm512_cvtps_pd(fx[q]) : _mm512_setzero_pd();
         wy[q] = q < k ? _mm512_cvtps_pd(fy[q]) : _mm512_setzero_pd();
       }
-      add_tile_sums(ad + 2 * static_cast<std::size_t>(q0), k, wx, wy, scale);
+      // (1 * sums + a: one rounding, the same bits as sums + a)
+      add_tile_sums(ad + 2 * static_cast<std::size_t>(q0), k, wx, wy, one);
     }, add_shares_then_finish);
   }
 
@@ -825,11 +827,10 @@ class CellPairs {
 
   template <bool Viscosity, bool RecipRoot = false, class Finish = NoFinish>
   void seed_forces(const CellGrid& grid, const Vec2* x, const Vec2* v, const Real* p,
-                   const Real* inv_rho, Real h, Real half_m_spiky_grad, Real eta_m_visc_lap,
-                   Vec2* a, int threads, Finish finish = {}) const {
+                   const Real* inv_rho, Real h, Real l, Vec2* a, int threads,
+                   Finish finish = {}) const {
     const SeedPair<Viscosity, RecipRoot> pair{v, p, inv_rho, _mm512_set1_pd(h),
-                                              _mm512_set1_pd(half_m_spiky_grad),
-                                              _mm512_set1_pd(eta_m_visc_lap)};
+                                              _mm512_set1_pd(l)};
     pair_sums(grid, x, h, a, threads, pair, finish);
   }
 #endif
