@@ -92,10 +92,9 @@ PAIR_DRIVER = r"""
 #include "neighbours/cell_pairs.hpp"
 using namespace sphfluid;
 
-#if SPHFLUID_CELL_PAIRS
+#if SPHFLUID_AVX512
 struct One {  // every neighbour weighs 1: rho_i = 1 + (neighbours of i)
-  __m512d operator()(__m512d) const { return _mm512_set1_pd(1.0); }
-  Real operator()(Real) const { return 1.0; }
+  template <class L> L operator()(L) const { return simd::splat<L>(1.0); }
 };
 
 int check(const std::vector<Vec2>& x0, Real h, Index count, const char* name) {
@@ -162,7 +161,7 @@ int check(const std::vector<Vec2>& x0, Real h, Index count, const char* name) {
 #endif
 
 int main() {
-#if SPHFLUID_CELL_PAIRS
+#if SPHFLUID_AVX512
   unsigned s = 11;
   auto rnd = [&] { s = s * 1664525u + 1013904223u; return (s >> 8) / double(1u << 24); };
   const Real h = 0.0283;

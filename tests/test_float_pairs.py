@@ -1,5 +1,5 @@
 """solver.pair_precision "float": the seed's pressure and viscosity pair forces
-summed in single precision by the cell clusters (cpp/cell_pairs.hpp, SeedFloats),
+summed in single precision by the cell clusters (CellFloatFrame, SeedFloats),
 the density in double as without it. The forces agree with the double sums to
 float round-off at any resolution and wherever the fluid sits in the domain, 1
 and 2 threads give identical states, and double stays the default."""

@@ -24,7 +24,7 @@ DRIVER = r"""
 #include <cmath>
 #include <cstdio>
 #include <vector>
-#include "neighbours/grid.hpp"
+#include "neighbours/lists.hpp"
 #include "terms/kernels.hpp"
 #include "terms/wendland.hpp"
 using namespace sphfluid;
@@ -40,7 +40,7 @@ int check(const std::vector<Vec2>& x, Real h, W w, const char* name, Index block
   Csr<Index> nbrs;
   std::vector<Real> sum(n, -1), total(n, -1), acc(n, -1);
   std::vector<std::vector<Index>> lists(n);
-  grid.neighbours(xs.data(), n, h, 2, nbrs, w, [&](Index i, const Index* nb, Index count, Real s) {
+  lists::full(grid, xs.data(), n, h, 2, nbrs, w, [&](Index i, const Index* nb, Index count, Real s) {
     sum[i] = s;
     lists[i].assign(nb, nb + count);
   });
@@ -48,7 +48,7 @@ int check(const std::vector<Vec2>& x, Real h, W w, const char* name, Index block
   // i's block, and the sums carried within a block add up to every neighbour's
   // weight.
   Csr<Index> half;
-  grid.neighbours_once(xs.data(), n, h, 1, block, half, acc.data(), w,
+  lists::half(grid, xs.data(), n, h, 1, block, half, acc.data(), w,
                        [&](Index i, Real s) { total[i] = s; });
   int bad = 0, bad_once = 0;
   // The same rows, in the same order, and bitwise the same sums on any number
@@ -56,7 +56,7 @@ int check(const std::vector<Vec2>& x, Real h, W w, const char* name, Index block
   for (const int threads : {2, 3, 17}) {
     Csr<Index> again;
     std::vector<Real> acc2(n, -1), total2(n, -1);
-    grid.neighbours_once(xs.data(), n, h, threads, block, again, acc2.data(), w,
+    lists::half(grid, xs.data(), n, h, threads, block, again, acc2.data(), w,
                          [&](Index i, Real s) { total2[i] = s; });
     for (Index i = 0; i < n; ++i) {
       const Row<Index> a = half.row(i), b = again.row(i);
@@ -89,7 +89,7 @@ int check(const std::vector<Vec2>& x, Real h, W w, const char* name, Index block
 }
 
 int main() {
-#if defined(__AVX512F__)
+#if SPHFLUID_AVX512
   std::printf("path: avx512\n");
 #else
   std::printf("path: scalar\n");
@@ -116,9 +116,9 @@ int main() {
   for (const auto& c : cases)
     for (const Index block : {Index(1), Index(7), Index(700), Index(5000)}) {
       std::printf("%s: ", c.first);
-      bad += check(c.second, h, Kernels::Poly6OfR2{&poly}, "poly6", block);
+      bad += check(c.second, h, Poly6Weight(poly), "poly6", block);
       std::printf("%s: ", c.first);
-      bad += check(c.second, h, Wendland::OfR2{&wend}, "wendland", block);
+      bad += check(c.second, h, WendlandWeight(wend), "wendland", block);
     }
   std::printf("wrong in all: %d\n", bad);
   return bad != 0;

@@ -1,5 +1,5 @@
 """The seed's double pair forces with 1/r from rsqrt14 and two Newton steps
-(SeedPair's RecipRoot, which Intel CPUs run: prefers_recip_root) against the
+(the pair term's RecipRoot, which Intel CPUs run: prefers_recip_root) against the
 square root and division, in a small program: the same forces to round-off,
 including coincident particles (r = 0, no force) and pairs just inside h."""
 from __future__ import annotations
@@ -16,11 +16,16 @@ DRIVER = r"""
 #include <cmath>
 #include <cstdio>
 #include <vector>
-#include "neighbours/cell_pairs.hpp"
+#include "methods/seed/pairs.hpp"
+#include "neighbours/frames.hpp"
 using namespace sphfluid;
 
+struct One {
+  template <class L> L operator()(L) const { return simd::splat<L>(1.0); }
+};
+
 int main() {
-#if SPHFLUID_CELL_PAIRS
+#if SPHFLUID_AVX512
   unsigned s = 5;
   auto rnd = [&] { s = s * 1664525u + 1013904223u; return (s >> 8) / double(1u << 24); };
   const Real h = 0.02, dx = 0.01;
@@ -45,16 +50,17 @@ int main() {
   CellPairs cp;
   cp.make_blocks(grid, n, 2);
   std::vector<Real> rho(n);
-  struct One {
-    __m512d operator()(__m512d) const { return _mm512_set1_pd(1.0); }
-    Real operator()(Real) const { return 1.0; }
-  };
   cp.density(grid, x.data(), h, 1.0, 1.0, One{}, rho.data(), 1);  // (cuts the pair blocks)
   std::vector<Vec2> a0(n), a1(n);
-  cp.seed_forces<true, false>(grid, x.data(), v.data(), p.data(), ir.data(), h, 0.7,
-                              a0.data(), 2);
-  cp.seed_forces<true, true>(grid, x.data(), v.data(), p.data(), ir.data(), h, 0.7,
-                             a1.data(), 2);
+  using simd::D8;
+  const PositionFrame<D8> frame(x.data(), h);
+  const InterleavedVelocity vel{v.data()};
+  const seed::ForcePairs<D8, true, false, InterleavedVelocity> root{
+      p.data(), ir.data(), vel, D8::splat(h), D8::splat(0.7)};
+  const seed::ForcePairs<D8, true, true, InterleavedVelocity> newton{
+      p.data(), ir.data(), vel, D8::splat(h), D8::splat(0.7)};
+  cp.pair_sums(grid, frame, root, a0.data(), 2);
+  cp.pair_sums(grid, frame, newton, a1.data(), 2);
   double largest = 0, diff = 0;
   int bad = 0;
   for (Index k = 0; k < n; ++k) {

@@ -113,9 +113,10 @@ int main() {
       }
     }
     const __mmask8 lanes = static_cast<__mmask8>(s >> 5);
-    const __mmask8 got = walls.may_hit8(lanes, _mm512_load_pd(x0), _mm512_load_pd(y0),
-                                        _mm512_load_pd(x1), _mm512_load_pd(y1));
-    const __mmask8 near = walls.near8(lanes, _mm512_load_pd(x0), _mm512_load_pd(y0));
+    using simd::D8;
+    const __mmask8 got = walls.may_hit8(lanes, D8::loadu(x0), D8::loadu(y0), D8::loadu(x1),
+                                        D8::loadu(y1));
+    const __mmask8 near = walls.near8(lanes, D8::loadu(x0), D8::loadu(y0));
     for (int l = 0; l < 8; ++l) {
       const Vec2 p0(x0[l], y0[l]);
       const bool want = (lanes >> l & 1) && walls.may_hit(p0, Vec2(x1[l], y1[l]));

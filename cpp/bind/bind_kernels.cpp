@@ -7,9 +7,11 @@
 #include <string>
 
 #include "bind/arrays.hpp"
-#include "terms/kernels.hpp"
-#include "terms/wendland.hpp"
+#include "boundary/wall_tables.hpp"
 #include "boundary/walls.hpp"
+#include "terms/kernels.hpp"
+#include "terms/lattice.hpp"
+#include "terms/wendland.hpp"
 
 namespace py = pybind11;
 using namespace sphfluid;
@@ -97,31 +99,19 @@ void bind_kernels(py::module_& m) {
     check_h(h);
     if (!(d1 >= 0 && d2 >= 0 && dx >= 0 && m_over_rho0 >= 0))
       throw std::invalid_argument("distances, dx and m / rho0 must be >= 0");
-    Wendland w(h);
-    w.build_corner_tables(dx, m_over_rho0);
-    return py::make_tuple(w.corner_half(d1, d2), w.corner_line(d1, d2), w.corner_line(d2, d1));
+    WallTables t{Wendland(h)};
+    t.build_corner_tables(dx, m_over_rho0);
+    return py::make_tuple(t.corner_half(d1, d2), t.corner_line(d1, d2), t.corner_line(d2, d1));
   }, py::arg("d1"), py::arg("d2"), py::arg("h"), py::arg("dx") = 0.0, py::arg("m_over_rho0") = 0.0,
      "wcsph's share of the quadrant beyond a right-angled corner, at distances d1 and d2 from "
      "its walls: (density / rho0, push along wall 1's normal, push along wall 2's normal), per "
      "unit 2 p rho0 / rho^2; from the mirrored lattice of spacing dx (dx > 0, particle mass "
      "m_over_rho0 * rho0) or the continuum (dx = 0)");
   m.def("lattice_mass", [](double rho0, double dx, double h, const std::string& kernel) {
-    check_h(h);
-    if (!(dx > 0 && rho0 > 0)) throw std::invalid_argument("rho0 and dx must be > 0");
     if (kernel != "poly6" && kernel != "wendland")
       throw std::invalid_argument("kernel: expected poly6 or wendland, got " + kernel);
-    // Mass that gives density rho0 at a particle inside an infinite square
-    // lattice of spacing dx: rho0 / sum_j W(|r_ij|), self included.
-    const Kernels k(h);
-    const Wendland w(h);
-    const int reach = static_cast<int>(std::ceil(h / dx));
-    double sum = 0;
-    for (int i = -reach; i <= reach; ++i)
-      for (int j = -reach; j <= reach; ++j) {
-        const double r2 = (i * i + j * j) * dx * dx;
-        sum += kernel == "poly6" ? k.w_poly6(r2) : w.value(std::sqrt(r2));
-      }
-    return rho0 / sum;
+    return lattice_mass(rho0, dx, h,
+                        kernel == "poly6" ? LatticeKernel::kPoly6 : LatticeKernel::kWendland);
   }, py::arg("rho0"), py::arg("dx"), py::arg("h"), py::arg("kernel") = "poly6",
      "Particle mass giving density rho0 inside a filled square lattice of spacing dx "
      "for the seed's poly6 or wcsph's Wendland kernel");

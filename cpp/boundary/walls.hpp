@@ -3,15 +3,12 @@
 // reflection of a particle's path within one step (4.2). Pure geometry: no SPH here.
 #pragma once
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
-
 #include <algorithm>
 #include <utility>
 #include <vector>
 
 #include "core/types.hpp"
+#include "simd/ints.hpp"
 
 namespace sphfluid {
 
@@ -94,43 +91,39 @@ class WallSet {
     const Index c = cell_of(p0);
     return c < 0 || c != cell_of(p1) || cell_start_[c] != cell_start_[c + 1];
   }
-#if defined(__AVX512F__) && defined(__AVX512VL__)
+#if SPHFLUID_AVX512
   // may_hit for eight paths at once: from (x0[k], y0[k]) to (x1[k], y1[k]) on
   // the lanes of `lanes`; the lanes whose path may meet a wall.
-  __mmask8 may_hit8(__mmask8 lanes, __m512d x0, __m512d y0, __m512d x1, __m512d y1) const {
-    __mmask8 on0, on1;
-    const __m256i c0 = cells8(lanes, x0, y0, on0), c1 = cells8(lanes, x1, y1, on1);
-    const __mmask8 same = on0 & on1 & _mm256_cmpeq_epi32_mask(c0, c1);
-    const __m256i count =
-        _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), same, c0, cell_count_.data(), 4);
-    return lanes & ~(same & ~_mm256_test_epi32_mask(count, count));
+  simd::Mask8 may_hit8(simd::Mask8 lanes, simd::D8 x0, simd::D8 y0, simd::D8 x1,
+                       simd::D8 y1) const {
+    simd::Mask8 on0, on1;
+    const simd::I8 c0 = cells8(lanes, x0, y0, on0), c1 = cells8(lanes, x1, y1, on1);
+    const simd::Mask8 same = on0 & on1 & eq(c0, c1);
+    const simd::I8 count = simd::gather(same, c0, cell_count_.data());
+    return lanes & ~(same & ~nonzero(count));
   }
   // The lanes of `lanes` whose point (x[k], y[k]) lies in a lookup cell that
   // some wall comes near: the only points for_each_ghost may give ghosts.
-  __mmask8 near8(__mmask8 lanes, __m512d x, __m512d y) const {
-    __mmask8 on;
-    const __m256i c = cells8(lanes, x, y, on);
-    const __m256i count =
-        _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), on, c, cell_count_.data(), 4);
-    return _mm256_test_epi32_mask(count, count);
+  simd::Mask8 near8(simd::Mask8 lanes, simd::D8 x, simd::D8 y) const {
+    simd::Mask8 on;
+    const simd::I8 c = cells8(lanes, x, y, on);
+    return nonzero(simd::gather(on, c, cell_count_.data()));
   }
 #endif
 
  private:
-#if defined(__AVX512F__) && defined(__AVX512VL__)
+#if SPHFLUID_AVX512
   // The lookup cells of eight points, on the lanes of `on` (those of `lanes`
   // on the grid; cell_of's -1 elsewhere).
-  __m256i cells8(__mmask8 lanes, __m512d x, __m512d y, __mmask8& on) const {
-    const __m512d zero = _mm512_setzero_pd();
-    const __m512d inv = _mm512_set1_pd(inv_cell_);
-    const __m512d fx = _mm512_mul_pd(_mm512_sub_pd(x, _mm512_set1_pd(origin_.x())), inv);
-    const __m512d fy = _mm512_mul_pd(_mm512_sub_pd(y, _mm512_set1_pd(origin_.y())), inv);
-    on = _mm512_mask_cmp_pd_mask(lanes, fx, zero, _CMP_GE_OQ) &
-         _mm512_cmp_pd_mask(fy, zero, _CMP_GE_OQ) &
-         _mm512_cmp_pd_mask(fx, _mm512_set1_pd(nx_), _CMP_LT_OQ) &
-         _mm512_cmp_pd_mask(fy, _mm512_set1_pd(ny_), _CMP_LT_OQ);
-    const __m256i ix = _mm512_maskz_cvttpd_epi32(on, fx), iy = _mm512_maskz_cvttpd_epi32(on, fy);
-    return _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(nx_)), ix);
+  simd::I8 cells8(simd::Mask8 lanes, simd::D8 x, simd::D8 y, simd::Mask8& on) const {
+    using simd::D8;
+    const D8 zero = simd::zero<D8>(), inv = D8::splat(inv_cell_);
+    const D8 fx = (x - D8::splat(origin_.x())) * inv;
+    const D8 fy = (y - D8::splat(origin_.y())) * inv;
+    on = ge(lanes, fx, zero) & ge(0xFF, fy, zero) & lt(0xFF, fx, D8::splat(nx_)) &
+         lt(0xFF, fy, D8::splat(ny_));
+    const simd::I8 ix = simd::truncate(on, fx), iy = simd::truncate(on, fy);
+    return iy * simd::I8::splat(nx_) + ix;
   }
 #endif
   // The lookup cell of p, or -1 off the grid.

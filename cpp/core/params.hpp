@@ -1,7 +1,7 @@
-// SimParams: every physical and numerical constant of a run, in SI units.
-// TimeStepLimit names the condition that chose an adaptive step.
-// Filled by the Python scene loader (or by hand in tests); read by the Solver.
-// Feature flags name the optional terms so the step can be specialised on them.
+// SimParams: every physical and numerical constant of a run, in SI units, and
+// the method that runs it. TimeStepLimit names the condition that chose an
+// adaptive step. Filled by the Python scene loader (or by hand in tests);
+// read by the Solver and the methods.
 #pragma once
 
 #include <cmath>
@@ -10,21 +10,8 @@
 
 namespace sphfluid {
 
-enum Feature : unsigned {
-  kViscosity = 1u << 0,       // eta > 0: seed eq. 17
-  kSurfaceTension = 1u << 1,  // sigma > 0: seed eqs. 18-20
-  kWalls = 1u << 2,           // at least one wall segment: seed section 4
-  kPeriodic = 1u << 3,        // the domain wraps along x and/or y
-};
-constexpr unsigned kNumFeatureSets = 16;
-
+// The methods (methods/registry.cpp registers each).
 enum class Method : int { kSeed = 0, kWcsph = 1 };
-
-// Whether a step with these features evaluates each fluid pair once, from half
-// neighbour lists (either method): not across periodic seams (minimum images),
-// which keep full lists and the gather loop. wcsph's surface tension is a pass
-// of its own (surface_energy.hpp).
-constexpr bool pairs_once(unsigned features) { return (features & kPeriodic) == 0; }
 
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 
@@ -104,15 +91,11 @@ struct SimParams {
   // for flows with no free surface, where pressures below the reference are real.
   Real background_pressure = 0;  // Pa
   Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
-  static constexpr Real kTaitGamma = 7;
 
-  // Speed of sound of the method's EOS: sqrt(k) for the seed's p = k (rho - rho0)
-  // (c^2 = dp/drho), c0 for wcsph.
-  Real sound_speed() const { return method == Method::kWcsph ? c0 : std::sqrt(k); }
-
-  // The length in the time-step conditions: the kernel support h for the seed's
-  // kernels, the smoothing length h/2 for wcsph's Wendland kernel (support 2 x h/2).
-  Real step_length() const { return method == Method::kWcsph ? h / 2 : h; }
+  // Speed of sound of the method's state equation, and the length in the
+  // time-step conditions (the method's registration says: methods/registry.cpp).
+  Real sound_speed() const;
+  Real step_length() const;
 
   // Mueller et al. (2003) use l = 7.065 /m with h = 0.0457 m, i.e. l h = 0.323.
   static constexpr Real kSurfaceThresholdTimesH = 0.323;

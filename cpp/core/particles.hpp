@@ -1,24 +1,67 @@
 // ParticleSet: one contiguous array per particle field (structure of arrays),
-// re-ordered together by one permutation. Buffers are shared with the numpy
-// views handed to Python, and are copied before any write that would move or
-// resize memory a view still points at (copy-on-write), so a view never dangles.
+// each listed once in a field registry that resizing, reordering (by a
+// permutation or by moves), compaction and memory accounting iterate over. A
+// field of a method's own (a warm start, a rate) registers itself the same
+// way, in one line. Buffers are shared with the numpy views handed to Python,
+// and are copied before any write that would move or resize memory a view
+// still points at (copy-on-write), so a view never dangles.
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
-#include "neighbours/moves.hpp"
 #include "core/parallel.hpp"
 #include "core/types.hpp"
+#include "neighbours/moves.hpp"
 
 namespace sphfluid {
 
+class ParticleSet;
+
+// What a reordering does to a field: a state field moves with its particle
+// (positions, velocities, ids; a method's warm start); a derived one is
+// recomputed after every sort (density, pressure, acceleration; a method's
+// scratch), so a sort leaves it as it is and only resizing and compaction
+// keep it in step.
+enum class FieldKind { kState, kDerived };
+
+// A field as the registry sees it.
+class FieldBase {
+ public:
+  FieldBase(ParticleSet& set, const char* name, FieldKind kind);
+  virtual ~FieldBase();
+  FieldBase(const FieldBase&) = delete;
+  FieldBase& operator=(const FieldBase&) = delete;
+
+  const char* name() const { return name_; }
+  FieldKind kind() const { return kind_; }
+  virtual void resize(std::size_t n) = 0;
+  virtual void compact(const std::vector<char>& keep) = 0;
+  virtual std::size_t bytes() const = 0;
+  virtual bool exclusive() const = 0;
+  // out[k] = in[order[k]], into a fresh buffer that then becomes current.
+  virtual void permute(const std::vector<Index>& order, int threads) = 0;
+  // The moves in place (exclusive() only); the jumps' entries wait in the
+  // spare buffer (begin_write's). prepare_moves before any part is applied.
+  virtual void prepare_moves(std::size_t n) = 0;
+  virtual void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps) = 0;
+  virtual void apply_part(const MoveParts& parts, int t, const std::vector<Move>& blocks,
+                          const std::vector<Move>& jumps) = 0;
+
+ private:
+  ParticleSet* set_;
+  const char* name_;
+  FieldKind kind_;
+};
+
 template <class T>
-class Field {
+class Field final : public FieldBase {
  public:
   using Buffer = std::vector<T>;
 
-  Field() : buf_(std::make_shared<Buffer>()) {}
+  Field(ParticleSet& set, const char* name, FieldKind kind)
+      : FieldBase(set, name, kind), buf_(std::make_shared<Buffer>()) {}
 
   T* data() { return buf_->data(); }
   const T* data() const { return buf_->data(); }
@@ -26,14 +69,14 @@ class Field {
   const T& operator[](std::size_t i) const { return (*buf_)[i]; }
   std::size_t size() const { return buf_->size(); }
   // Heap bytes held by this field (its buffer and its scratch), capacity included.
-  std::size_t bytes() const {
+  std::size_t bytes() const override {
     return (buf_->capacity() + (tmp_ ? tmp_->capacity() : 0)) * sizeof(T);
   }
 
   // The buffer as Python sees it: a view holds this pointer, keeping it alive.
   std::shared_ptr<Buffer> share() const { return buf_; }
 
-  void resize(std::size_t n) {
+  void resize(std::size_t n) override {
     detach();
     buf_->resize(n);
   }
@@ -47,17 +90,34 @@ class Field {
   }
   void commit_write() { buf_.swap(tmp_); }
   // No numpy view shares the buffer: it may be changed in place.
-  bool exclusive() const { return buf_.use_count() == 1; }
+  bool exclusive() const override { return buf_.use_count() == 1; }
 
-  // Keep the entries whose keep[i] is true, in order; returns how many remain.
-  std::size_t compact(const std::vector<char>& keep) {
+  // Keep the entries whose keep[i] is true, in order.
+  void compact(const std::vector<char>& keep) override {
     detach();
     Buffer& b = *buf_;
     std::size_t w = 0;
     for (std::size_t i = 0; i < b.size(); ++i)
       if (keep[i]) b[w++] = b[i];
     b.resize(w);
-    return w;
+  }
+
+  void permute(const std::vector<Index>& order, int threads) override {
+    const Index n = static_cast<Index>(order.size());
+    const Index* o = order.data();
+    const T* in = data();
+    T* out = begin_write(order.size());
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Index k = 0; k < n; ++k) out[k] = in[o[k]];
+    commit_write();
+  }
+  void prepare_moves(std::size_t n) override { spare_ = begin_write(n); }
+  void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps) override {
+    sphfluid::apply_moves(blocks, jumps, data(), spare_);
+  }
+  void apply_part(const MoveParts& parts, int t, const std::vector<Move>& blocks,
+                  const std::vector<Move>& jumps) override {
+    parts.apply(t, blocks, jumps, data(), spare_);
   }
 
  private:
@@ -68,103 +128,92 @@ class Field {
 
   std::shared_ptr<Buffer> buf_;
   std::shared_ptr<Buffer> tmp_;  // scratch for begin_write(), reused every step
+  T* spare_ = nullptr;           // the moves' jumps wait here (prepare_moves)
 };
 
-struct ParticleSet {
-  Field<Vec2> x;    // position, m
-  Field<Vec2> v;    // velocity, m/s
-  Field<Vec2> a;    // acceleration of the last force evaluation, m/s^2
-  Field<Real> rho;  // density of the last evaluation, kg/m^3
-  Field<Real> p;    // pressure of the last evaluation, Pa
-  Field<Id> id;     // stable identity; storage order changes every step
+class ParticleSet {
+  friend class FieldBase;
+  // Every field, in the order of registration (declared first: the fields
+  // below register themselves as they are built).
+  std::vector<FieldBase*> fields_;
+
+ public:
+  ParticleSet() = default;
+  ParticleSet(const ParticleSet&) = delete;
+  ParticleSet& operator=(const ParticleSet&) = delete;
+
+  // The fields every method has; a method registers its own beside them.
+  Field<Vec2> x{*this, "position", FieldKind::kState};      // m
+  Field<Vec2> v{*this, "velocity", FieldKind::kState};      // m/s
+  Field<Id> id{*this, "id", FieldKind::kState};             // stable identity
+  Field<Vec2> a{*this, "acceleration", FieldKind::kDerived};  // of the last evaluation, m/s^2
+  Field<Real> rho{*this, "density", FieldKind::kDerived};   // of the last evaluation, kg/m^3
+  Field<Real> p{*this, "pressure", FieldKind::kDerived};    // of the last evaluation, Pa
 
   Index size() const { return static_cast<Index>(x.size()); }
+  const std::vector<FieldBase*>& fields() const { return fields_; }
   std::size_t bytes() const {
-    return x.bytes() + v.bytes() + a.bytes() + rho.bytes() + p.bytes() + id.bytes() +
-           jumped_ids_.capacity() * sizeof(Id);
+    std::size_t sum = 0;
+    for (const FieldBase* f : fields_) sum += f->bytes();
+    return sum;
   }
-
   void resize(Index n) {
-    jumped_ids_.reserve(static_cast<std::size_t>(n) / 64 + 1);  // apply_moves, sized here
-    x.resize(n);
-    v.resize(n);
-    a.resize(n);
-    rho.resize(n);
-    p.resize(n);
-    id.resize(n);
+    for (FieldBase* f : fields_) f->resize(static_cast<std::size_t>(n));
+  }
+  void compact(const std::vector<char>& keep) {
+    for (FieldBase* f : fields_) f->compact(keep);
   }
 
-  // Reorder the state (x, v, id) in one pass over the permutation; derived
-  // fields are recomputed after a sort.
+  // Reorder the state fields by the permutation (order[k] = the particle
+  // that goes to k); derived fields are recomputed after a sort.
   void permute_state(const std::vector<Index>& order, int threads) {
-    const Index n = static_cast<Index>(order.size());
-    const Index* o = order.data();
-    const Vec2* xi = x.data();
-    const Vec2* vi = v.data();
-    const Id* ii = id.data();
-    Vec2* xo = x.begin_write(order.size());
-    Vec2* vo = v.begin_write(order.size());
-    Id* io = id.begin_write(order.size());
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (Index k = 0; k < n; ++k) {
-      xo[k] = xi[o[k]];
-      vo[k] = vi[o[k]];
-      io[k] = ii[o[k]];
-    }
-    x.commit_write();
-    v.commit_write();
-    id.commit_write();
+    for (FieldBase* f : fields_)
+      if (f->kind() == FieldKind::kState) f->permute(order, threads);
   }
 
   // The same by moves (CellGrid::moves and jumps), in place where no numpy
-  // view shares the arrays (a step moves few particles to another cell, so
-  // the moves touch a few percent of them), else through a permutation in
-  // `order`. The jumping entries wait in the spare buffers of x and v (the
-  // ones begin_write() fills) and in jumped_ids_ (kept at n / 64 + 1
-  // entries, the most jumps a sort makes). In place, each of the moves'
-  // parts (disjoint ranges) is applied by a thread of its own: the one that
-  // takes that range in the loops that follow.
+  // view shares a state field (a step moves few particles to another cell,
+  // so the moves touch a few percent of them), else through a permutation in
+  // `order`. The jumping entries wait in each field's spare buffer. In place,
+  // each of the moves' parts (disjoint ranges) is applied by a thread of its
+  // own: the one that takes that range in the loops that follow.
   void apply_moves(const std::vector<Move>& blocks, const std::vector<Move>& jumps,
                    const MoveParts& parts, std::vector<Index>& order, int threads) {
     const std::size_t n = static_cast<std::size_t>(size());
-    if (!(x.exclusive() && v.exclusive() && id.exclusive()) || jumps.size() > n / 64 + 1) {
+    bool exclusive = jumps.size() <= n / 64 + 1;
+    for (const FieldBase* f : fields_)
+      exclusive = exclusive && (f->kind() != FieldKind::kState || f->exclusive());
+    if (!exclusive) {
       moves_to_order(blocks, jumps, size(), order);
       permute_state(order, threads);
       return;
     }
-    jumped_ids_.resize(n / 64 + 1);
-    Vec2* const xs = x.data();
-    Vec2* const vs = v.data();
-    Id* const is = id.data();
-    Vec2* const xt = x.begin_write(n);
-    Vec2* const vt = v.begin_write(n);
-    Id* const it = jumped_ids_.data();
+    for (FieldBase* f : fields_)
+      if (f->kind() == FieldKind::kState) f->prepare_moves(n);
     const int count = threads > 1 ? parts.count() : 1;
     if (count > 1) {
 #pragma omp parallel for schedule(static) num_threads(count)
-      for (int t = 0; t < count; ++t) {
-        parts.apply(t, blocks, jumps, xs, xt);
-        parts.apply(t, blocks, jumps, vs, vt);
-        parts.apply(t, blocks, jumps, is, it);
-      }
+      for (int t = 0; t < count; ++t)
+        for (FieldBase* f : fields_)
+          if (f->kind() == FieldKind::kState) f->apply_part(parts, t, blocks, jumps);
     } else {
-      sphfluid::apply_moves(blocks, jumps, xs, xt);
-      sphfluid::apply_moves(blocks, jumps, vs, vt);
-      sphfluid::apply_moves(blocks, jumps, is, it);
+      for (FieldBase* f : fields_)
+        if (f->kind() == FieldKind::kState) f->apply_moves(blocks, jumps);
     }
   }
-
-  void compact(const std::vector<char>& keep) {
-    x.compact(keep);
-    v.compact(keep);
-    a.compact(keep);
-    rho.compact(keep);
-    p.compact(keep);
-    id.compact(keep);
-  }
-
- private:
-  std::vector<Id> jumped_ids_;  // apply_moves' scratch
 };
+
+inline FieldBase::FieldBase(ParticleSet& set, const char* name, FieldKind kind)
+    : set_(&set), name_(name), kind_(kind) {
+  set.fields_.push_back(this);
+}
+inline FieldBase::~FieldBase() {
+  auto& f = set_->fields_;
+  for (std::size_t k = 0; k < f.size(); ++k)
+    if (f[k] == this) {
+      f.erase(f.begin() + static_cast<std::ptrdiff_t>(k));
+      break;
+    }
+}
 
 }  // namespace sphfluid

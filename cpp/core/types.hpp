@@ -4,9 +4,8 @@
 
 #include <Eigen/Core>
 #include <cstdint>
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
+
+#include "simd/lanes.hpp"
 
 namespace sphfluid {
 
@@ -17,22 +16,10 @@ using Id = std::int64_t;     // stable particle identity
 
 constexpr Real kPi = Real(3.14159265358979323846);
 
-// Whether the hand-written AVX-512 loops run (the neighbour filter; the cell
-// clusters, which need VL too): built for a CPU that has it, with Real =
-// double and Vec2 two packed doubles.
-#if defined(__AVX512F__)
-constexpr bool kVector8 = sizeof(Real) == sizeof(double) && sizeof(Vec2) == 2 * sizeof(double);
-
-// The x and the y of eight interleaved points (x0, y0, x1, y1, ...): lo holds
-// points 0-3, hi points 4-7.
-inline __m512d x_of8(__m512d lo, __m512d hi) {
-  return _mm512_permutex2var_pd(lo, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), hi);
-}
-inline __m512d y_of8(__m512d lo, __m512d hi) {
-  return _mm512_permutex2var_pd(lo, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), hi);
-}
-#else
-constexpr bool kVector8 = false;
-#endif
+// Whether the eight-lane loops run (simd/: AVX-512F and VL): built for a CPU
+// that has them, with Real = double and Vec2 two packed doubles (the lanes
+// read the particle arrays as interleaved doubles).
+constexpr bool kVector8 = SPHFLUID_AVX512 && sizeof(Real) == sizeof(double) &&
+                          sizeof(Vec2) == 2 * sizeof(double);
 
 }  // namespace sphfluid

@@ -1,13 +1,11 @@
-// The seed's 2D smoothing kernels (SPEC.md): poly6 (value, gradient, Laplacian),
-// spiky (value, gradient) and the viscosity Laplacian, with Mueller's 3D kernels
-// re-normalised for 2D. Built once from h; functions take r^2 where they can.
+// The seed's 2D smoothing kernels (docs/method-seed.md, "Kernels"): poly6
+// (value, gradient, Laplacian), spiky (value, gradient) and the viscosity
+// Laplacian, Mueller's 3D kernels re-normalised for 2D. Built once from h;
+// functions take r^2 where they can. All are zero for r >= h.
 #pragma once
 
 #include "core/types.hpp"
-
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
+#include "simd/lanes.hpp"
 
 namespace sphfluid {
 
@@ -32,26 +30,6 @@ struct Kernels {
     const Real d = h2 - r2;
     return d > 0 ? poly6 * d * d * d : Real(0);
   }
-  // w_poly6 as a function object, also on eight r^2 at once (the neighbour
-  // filter's density; lanes with r >= h are the caller's to drop).
-  struct Poly6OfR2 {
-    // A polynomial in r^2, factor() times unscaled(r2) (cell_pairs.hpp sums
-    // the unscaled weights and applies the factor once per particle).
-    static constexpr bool kCheap = true;
-    const Kernels* k;
-    Real operator()(Real r2) const { return k->w_poly6(r2); }
-    Real factor() const { return k->poly6; }
-#if defined(__AVX512F__)
-    __m512d operator()(__m512d r2) const {
-      const __m512d d = _mm512_sub_pd(_mm512_set1_pd(k->h2), r2);
-      return _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(_mm512_set1_pd(k->poly6), d), d), d);
-    }
-    __m512d unscaled(__m512d r2) const {  // (h^2 - r^2)^3
-      const __m512d d = _mm512_sub_pd(_mm512_set1_pd(k->h2), r2);
-      return _mm512_mul_pd(_mm512_mul_pd(d, d), d);
-    }
-#endif
-  };
   // grad W = -24/(pi h^8) (h^2 - r^2)^2 r_ij         (colour-field normal)
   Vec2 grad_poly6(const Vec2& r_ij, Real r2) const {
     const Real d = h2 - r2;
@@ -84,6 +62,26 @@ struct Kernels {
     const Real x2 = x * x, x4 = x2 * x2;
     return x4 * x4;
   }
+};
+
+// Seed eq. 10: a pair's weight in the density, poly6 of r^2, on any lane type,
+// for pairs with r < h. A polynomial in r^2 (kCheap): a sum may take the
+// unscaled weights (h^2 - r^2)^3 and apply factor() once per particle.
+struct Poly6Weight {
+  static constexpr bool kCheap = true;
+  Real h2, coef;  // h^2, 4/(pi h^8)
+  explicit Poly6Weight(const Kernels& k) : h2(k.h2), coef(k.poly6) {}
+  template <class L>
+  SPHFLUID_INLINE L unscaled(L r2) const {
+    const L d = simd::splat<L>(h2) - r2;
+    return d * d * d;
+  }
+  template <class L>
+  SPHFLUID_INLINE L operator()(L r2) const {
+    const L d = simd::splat<L>(h2) - r2;
+    return simd::splat<L>(coef) * d * d * d;
+  }
+  Real factor() const { return coef; }
 };
 
 }  // namespace sphfluid

@@ -1,3 +1,6 @@
+// wcsph's surface tension (surface_energy.hpp): the node lattice, the
+// particles binned around it, and the phases of an evaluation, each a loop
+// over particles or nodes with the terms of terms/surface_energy.hpp.
 #include "methods/wcsph/surface_energy.hpp"
 
 #include <algorithm>
@@ -5,9 +8,8 @@
 #include <stdexcept>
 #include <string>
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
+#include "simd/lanes.hpp"
+#include "terms/surface_energy.hpp"
 
 namespace sphfluid {
 
@@ -22,12 +24,8 @@ void room(std::vector<T>& v, std::size_t n) {
 }
 
 // Whether the volumes and their pair term run eight candidates at a time over
-// runs of the bin order (AVX-512, and no periodic axis; see evaluate).
-#if defined(__AVX512F__)
-constexpr bool kVectorRuns = true;
-#else
-constexpr bool kVectorRuns = false;
-#endif
+// runs of the bin order (where the lanes run, and without a periodic axis).
+constexpr bool kVectorRuns = SPHFLUID_AVX512;
 
 // The nodes of a periodic axis of length len at about spacing g: a whole
 // number of them, so that the lattice wraps onto itself.
@@ -155,11 +153,19 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   room(acc_, static_cast<std::size_t>(n));
   acc_.resize(n);
   if (n == 0) return;
-  Vec2* acc = acc_.data();
-  const Real H = w_.h, H2 = H * H;
-  const Real gx = gx_, gy = gy_;
-  // The window of nodes within H of a particle. The solver's guard keeps
-  // positions finite; a NaN here would index nodes far outside the window.
+  place_window(x, n);
+  bin_particles(x, n);
+  volumes(x, n, threads);
+  scatter_gradient(x, threads);
+  normalise_nodes(threads);
+  node_forces(x, n, mass, threads);
+  volume_forces(x, n, mass, threads);
+}
+
+// The window of nodes within H of a particle. The solver's guard keeps
+// positions finite; a NaN here would index nodes far outside the window.
+void SurfaceEnergy::place_window(const Vec2* x, Index n) {
+  const Real H = w_.h;
   Vec2 lo = x[0], hi = x[0];
   for (Index i = 0; i < n; ++i) {
     if (!x[i].allFinite())
@@ -171,154 +177,161 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   if (box_.x) {
     ix0_ = 0;
     nx_ = period_x_;
-  } else {  // plus room for the fixed-width runs below
-    ix0_ = static_cast<Index>(std::floor((lo.x() - H - origin_.x()) / gx));
-    nx_ = static_cast<Index>(std::ceil((hi.x() + H - origin_.x()) / gx)) - ix0_ + 1 + run_;
+  } else {  // plus room for the fixed-width runs of visit_rows
+    ix0_ = static_cast<Index>(std::floor((lo.x() - H - origin_.x()) / gx_));
+    nx_ = static_cast<Index>(std::ceil((hi.x() + H - origin_.x()) / gx_)) - ix0_ + 1 + run_;
   }
   if (box_.y) {
     iy0_ = 0;
     ny_ = period_y_;
   } else {
-    iy0_ = static_cast<Index>(std::floor((lo.y() - H - origin_.y()) / gy));
-    ny_ = static_cast<Index>(std::ceil((hi.y() + H - origin_.y()) / gy)) - iy0_ + 1;
+    iy0_ = static_cast<Index>(std::floor((lo.y() - H - origin_.y()) / gy_));
+    ny_ = static_cast<Index>(std::ceil((hi.y() + H - origin_.y()) / gy_)) - iy0_ + 1;
   }
-  bin_particles(x, n);
-  const Real x0 = origin_.x() + ix0_ * gx, y0 = origin_.y() + iy0_ * gy;  // node (0, 0)
-  const Index nx = nx_, ny = ny_;
-  const Real inv_gx = 1 / gx, inv_gy = 1 / gy;
-  auto wrap = [](Index k, Index len) { return ((k % len) + len) % len; };
-  // row(c0, count, rx0, dy) for the nodes within H of x_j whose (wrapped) row
-  // lies in [row_lo, row_hi), in runs of consecutive nodes c0, c0 + 1, ...:
-  // rx0 + k gx and dy are node c0 + k's offset from x_j. Offsets come from the
-  // unwrapped node indices, so they are the nearest image across a seam.
-  auto visit_rows = [&](const Vec2& xj, Index row_lo, Index row_hi, auto row) {
-    const Index b_lo = static_cast<Index>(std::ceil((xj.y() - H - y0) * inv_gy));
-    const Index b_hi = static_cast<Index>(std::floor((xj.y() + H - y0) * inv_gy));
-    for (Index b = b_lo; b <= b_hi; ++b) {
-      const Index bw = box_.y ? wrap(b, ny) : b;
-      if (bw < row_lo || bw >= row_hi) continue;
-      const Real dy = y0 + b * gy - xj.y(), rest = H2 - dy * dy;
-      if (rest <= 0) continue;
-      const std::size_t base = static_cast<std::size_t>(bw) * nx;
-      if (!box_.x) {
-        // A fixed run of run_ nodes (a multiple of 8) from the first one past
-        // x_j - H: it covers every node within H, and the vector loops over it
-        // have no remainder; the nodes beyond H contribute exactly 0.
-        const Index a0 = static_cast<Index>(std::floor((xj.x() - H - x0) * inv_gx)) + 1;
-        row(base + a0, run_, x0 + a0 * gx - xj.x(), dy);
-        continue;
-      }
-      const Real half = std::sqrt(rest);
-      Index a_lo = static_cast<Index>(std::ceil((xj.x() - half - x0) * inv_gx));
-      const Index a_hi = static_cast<Index>(std::floor((xj.x() + half - x0) * inv_gx)) + 1;
-      while (a_lo < a_hi) {  // at most two runs: up to the seam, then from it
-        const Index aw = wrap(a_lo, nx), len = std::min<Index>(a_hi - a_lo, nx - aw);
-        row(base + aw, len, x0 + a_lo * gx - xj.x(), dy);
-        a_lo += len;
-      }
-    }
-  };
-  auto sep = [&](const Vec2& p, const Vec2& q) {
-    return box_.any() ? box_.delta(p, q) : Vec2(p - q);
-  };
-  // The bins around bin p along an axis of nb bins: p - 1, p, p + 1 (wrapped
-  // on a periodic axis; each bin once when there are fewer than three).
-  auto around = [](Index p, Index nb, bool periodic, Index out[3]) {
-    Index k = 0;
-    if (periodic && nb < 3) {
-      for (Index q = 0; q < nb; ++q) out[k++] = q;
-      return k;
-    }
-    for (Index d = -1; d <= 1; ++d) {
-      Index q = p + d;
-      if (periodic) q = (q + nb) % nb;
-      if (q >= 0 && q < nb) out[k++] = q;
-    }
-    return k;
-  };
-  // f(l) for every particle l in the 3 x 3 bins around bin_of_[j], in a fixed order.
-  auto for_near = [&](Index j, auto f) {
-    Index bys[3], bxs[3];
-    const Index nby = around(bin_of_[j] / bx_, by_, box_.y, bys);
-    const Index nbx = around(bin_of_[j] % bx_, bx_, box_.x, bxs);
-    for (Index s = 0; s < nby; ++s)
-      for (Index t = 0; t < nbx; ++t) {
-        const Index bin = bys[s] * bx_ + bxs[t];
-        for (Index k = bin_start_[bin]; k < bin_start_[bin + 1]; ++k) f(bin_items_[k]);
-      }
-  };
+}
 
-  // The particles' volumes 1 / sum_l W_H(x_j - x_l), self included.
+namespace {
+
+Index wrap(Index k, Index len) { return ((k % len) + len) % len; }
+
+// The bins around bin p along an axis of nb bins: p - 1, p, p + 1 (wrapped
+// on a periodic axis; each bin once when there are fewer than three).
+Index around(Index p, Index nb, bool periodic, Index out[3]) {
+  Index k = 0;
+  if (periodic && nb < 3) {
+    for (Index q = 0; q < nb; ++q) out[k++] = q;
+    return k;
+  }
+  for (Index d = -1; d <= 1; ++d) {
+    Index q = p + d;
+    if (periodic) q = (q + nb) % nb;
+    if (q >= 0 && q < nb) out[k++] = q;
+  }
+  return k;
+}
+
+}  // namespace
+
+// row(c0, count, rx0, dy) for the nodes within H of x_j whose (wrapped) row
+// lies in [row_lo, row_hi), in runs of consecutive nodes c0, c0 + 1, ...:
+// rx0 + k gx and dy are node c0 + k's offset from x_j. Offsets come from the
+// unwrapped node indices, so they are the nearest image across a seam.
+template <class Row>
+void SurfaceEnergy::visit_rows(const Vec2& xj, Index row_lo, Index row_hi, Row&& row) const {
+  const Real H = w_.h, H2 = H * H;
+  const Real x0 = origin_.x() + ix0_ * gx_, y0 = origin_.y() + iy0_ * gy_;  // node (0, 0)
+  const Real inv_gx = 1 / gx_, inv_gy = 1 / gy_;
+  const Index b_lo = static_cast<Index>(std::ceil((xj.y() - H - y0) * inv_gy));
+  const Index b_hi = static_cast<Index>(std::floor((xj.y() + H - y0) * inv_gy));
+  for (Index b = b_lo; b <= b_hi; ++b) {
+    const Index bw = box_.y ? wrap(b, ny_) : b;
+    if (bw < row_lo || bw >= row_hi) continue;
+    const Real dy = y0 + b * gy_ - xj.y(), rest = H2 - dy * dy;
+    if (rest <= 0) continue;
+    const std::size_t base = static_cast<std::size_t>(bw) * nx_;
+    if (!box_.x) {
+      // A fixed run of run_ nodes (a multiple of 8) from the first one past
+      // x_j - H: it covers every node within H, and the lane loops over it
+      // have no remainder; the nodes beyond H contribute exactly 0.
+      const Index a0 = static_cast<Index>(std::floor((xj.x() - H - x0) * inv_gx)) + 1;
+      row(base + a0, run_, x0 + a0 * gx_ - xj.x(), dy);
+      continue;
+    }
+    const Real half = std::sqrt(rest);
+    Index a_lo = static_cast<Index>(std::ceil((xj.x() - half - x0) * inv_gx));
+    const Index a_hi = static_cast<Index>(std::floor((xj.x() + half - x0) * inv_gx)) + 1;
+    while (a_lo < a_hi) {  // at most two runs: up to the seam, then from it
+      const Index aw = wrap(a_lo, nx_), len = std::min<Index>(a_hi - a_lo, nx_ - aw);
+      row(base + aw, len, x0 + a_lo * gx_ - xj.x(), dy);
+      a_lo += len;
+    }
+  }
+}
+
+// f(l) for every particle l in the 3 x 3 bins around bin_of_[j], in a fixed
+// order; across a periodic seam sep() gives the nearest image.
+template <class F>
+void SurfaceEnergy::for_near(Index j, F&& f) const {
+  Index bys[3], bxs[3];
+  const Index nby = around(bin_of_[j] / bx_, by_, box_.y, bys);
+  const Index nbx = around(bin_of_[j] % bx_, bx_, box_.x, bxs);
+  for (Index s = 0; s < nby; ++s)
+    for (Index t = 0; t < nbx; ++t) {
+      const Index bin = bys[s] * bx_ + bxs[t];
+      for (Index k = bin_start_[bin]; k < bin_start_[bin + 1]; ++k) f(bin_items_[k]);
+    }
+}
+
+#if SPHFLUID_AVX512
+// Without periodic axes the 3 x 3 bins around a particle are three runs of
+// the bin order: with the positions in that order (bin_particles), eight
+// candidates at a time, no branch (a candidate beyond H weighs exactly 0):
+// f(mask, k, dx, dy, r2) for eight candidates from bin position k on, x_j
+// minus their positions; mask marks the lanes that hold a candidate.
+template <class F>
+void SurfaceEnergy::near_lanes(const Vec2& xj, Index j, F&& f) const {
+  using simd::D8;
+  const Index q = bin_of_[j] / bx_, p = bin_of_[j] % bx_;
+  const Index p0 = std::max<Index>(p - 1, 0), p1 = std::min<Index>(p + 1, bx_ - 1);
+  const D8 x = D8::splat(xj.x()), y = D8::splat(xj.y());
+  for (Index s = std::max<Index>(q - 1, 0); s <= std::min<Index>(q + 1, by_ - 1); ++s) {
+    const Index k1 = bin_start_[s * bx_ + p1 + 1];
+    for (Index k = bin_start_[s * bx_ + p0]; k < k1; k += 8) {
+      const simd::Mask8 m = simd::first_lanes(k1 - k);
+      const D8 dx = x - D8::load(bin_x_pos_.data() + k, m);
+      const D8 dy = y - D8::load(bin_y_pos_.data() + k, m);
+      f(m, k, dx, dy, simd::fmadd(dx, dx, dy * dy));
+    }
+  }
+}
+#endif
+
+// W10: the particles' volumes 1 / sum_l W_H(x_j - x_l), self included.
+void SurfaceEnergy::volumes(const Vec2* x, Index n, int threads) {
   vol_.resize(n);
   gamma_.resize(n);
   Real* vol = vol_.data();
-  Real* gamma = gamma_.data();
-  // Without periodic axes the 3 x 3 bins around a particle are three runs of
-  // the bin order: with the positions in that order (bin_particles), eight
-  // candidates at a time, no branch (a candidate beyond H weighs exactly 0).
+  const WendlandWeight weight(w_);
+  const Real H2 = w_.h * w_.h;
   [[maybe_unused]] const bool runs = kVectorRuns && !box_.any();
-#if defined(__AVX512F__)
-  const __m512d v_one = _mm512_set1_pd(1), v_zero = _mm512_setzero_pd();
-  const __m512d v_inv_h = _mm512_set1_pd(w_.inv_h);
-  // f(mask, k, dx, dy, q, a) for eight candidates from bin position k on:
-  // x_j minus their positions, q = |r| / H and a = max(1 - q, 0); mask marks
-  // the lanes that hold a candidate.
-  auto near_lanes = [&](Index j, auto f) {
-    const Index q = bin_of_[j] / bx_, p = bin_of_[j] % bx_;
-    const Index p0 = std::max<Index>(p - 1, 0), p1 = std::min<Index>(p + 1, bx_ - 1);
-    const __m512d xj = _mm512_set1_pd(x[j].x()), yj = _mm512_set1_pd(x[j].y());
-    for (Index s = std::max<Index>(q - 1, 0); s <= std::min<Index>(q + 1, by_ - 1); ++s) {
-      const Index k1 = bin_start_[s * bx_ + p1 + 1];
-      for (Index k = bin_start_[s * bx_ + p0]; k < k1; k += 8) {
-        const __mmask8 m = k1 - k >= 8 ? 0xFF : static_cast<__mmask8>((1u << (k1 - k)) - 1);
-        const __m512d dx = _mm512_sub_pd(xj, _mm512_maskz_loadu_pd(m, bin_x_pos_.data() + k));
-        const __m512d dy = _mm512_sub_pd(yj, _mm512_maskz_loadu_pd(m, bin_y_pos_.data() + k));
-        const __m512d q8 =
-            _mm512_mul_pd(_mm512_sqrt_pd(_mm512_fmadd_pd(dx, dx, _mm512_mul_pd(dy, dy))), v_inv_h);
-        f(m, k, dx, dy, q8, _mm512_max_pd(_mm512_sub_pd(v_one, q8), v_zero));
-      }
-    }
-  };
-#endif
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
-    Real sum = 0;
-#if defined(__AVX512F__)
+#if SPHFLUID_AVX512
     if (runs) {
-      const __m512d v_w = _mm512_set1_pd(w_.w), v_four = _mm512_set1_pd(4);
-      __m512d lanes = _mm512_setzero_pd();
-      near_lanes(j, [&](__mmask8 m, Index, __m512d, __m512d, __m512d q8, __m512d a) {
-        const __m512d a2 = _mm512_mul_pd(a, a);
-        const __m512d wv = _mm512_mul_pd(_mm512_mul_pd(v_w, _mm512_mul_pd(a2, a2)),
-                                         _mm512_fmadd_pd(v_four, q8, v_one));
-        lanes = _mm512_mask_add_pd(lanes, m, lanes, wv);
+      simd::D8 lanes = simd::zero<simd::D8>();
+      near_lanes(x[j], j, [&](simd::Mask8 m, Index, simd::D8, simd::D8, simd::D8 r2) {
+        lanes = mask_add(lanes, m, lanes, weight(r2));
       });
-      vol[j] = 1 / _mm512_reduce_add_pd(lanes);
+      vol[j] = 1 / reduce_add(lanes);
       continue;
     }
 #endif
+    Real sum = 0;
     const Vec2 xj = x[j];
     for_near(j, [&](Index l) {
       const Real r2 = sep(xj, x[l]).squaredNorm();
-      if (r2 < H2) sum += w_.value(std::sqrt(r2));
+      if (r2 < H2) sum += weight(r2);
     });
     vol[j] = 1 / sum;
   }
+}
 
-  // grad c on the nodes, scattered from the particles: each bin row's nodes
-  // are filled by one thread from the particles of the bin rows around it, in
-  // a fixed order (so the sums do not depend on the thread count).
-  const std::size_t nodes = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+// W10: grad c on the nodes, scattered from the particles: each bin row's
+// nodes are filled by one thread from the particles of the bin rows around
+// it, in a fixed order (so the sums do not depend on the thread count).
+void SurfaceEnergy::scatter_gradient(const Vec2* x, int threads) {
+  const std::size_t nodes = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
   room(node_x_, nodes);
   room(node_y_, nodes);
   node_x_.assign(nodes, 0);
   node_y_.assign(nodes, 0);
   Real* nxs = node_x_.data();
   Real* nys = node_y_.data();
-  const Real inv_h = w_.inv_h, grad = w_.grad;
+  const Real* vol = vol_.data();
+  const Real inv_h = w_.inv_h, grad = w_.grad, gx = gx_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index q = 0; q < by_; ++q) {
-    const Index row_lo = q * bin_y_, row_hi = q == by_ - 1 ? ny : (q + 1) * bin_y_;
+    const Index row_lo = q * bin_y_, row_hi = q == by_ - 1 ? ny_ : (q + 1) * bin_y_;
     Index qs[3];
     const Index nq = around(q, by_, box_.y, qs);
     for (Index s = 0; s < nq; ++s)
@@ -333,18 +346,24 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
 #pragma omp simd
             for (Index i = 0; i < count; ++i) {  // V_j grad W_H(x_c - x_j)
               const Real rx = rx0 + i * gx;
-              const Real om = std::max(1 - std::sqrt(rx * rx + dy2) * inv_h, Real(0));
-              const Real f = vg * om * om * om;
+              const Real f = surface::node_gradient(vg, rx, dy2, inv_h);
               gxr[i] += f * rx;
               gyr[i] += f * dy;
             }
           });
         }
   }
-  // n_c and the length estimate, per row, summed in row order.
-  room(row_sums_, static_cast<std::size_t>(ny));
-  row_sums_.assign(static_cast<std::size_t>(ny), 0);
+}
+
+// W11: n_c = grad c / sqrt(|grad c|^2 + eps^2) and the energy, the length
+// estimate summed per row, in row order.
+void SurfaceEnergy::normalise_nodes(int threads) {
+  room(row_sums_, static_cast<std::size_t>(ny_));
+  row_sums_.assign(static_cast<std::size_t>(ny_), 0);
+  Real* nxs = node_x_.data();
+  Real* nys = node_y_.data();
   const Real eps = eps_;
+  const Index nx = nx_, ny = ny_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index b = 0; b < ny; ++b) {
     Real len_sum = 0;
@@ -359,79 +378,73 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   }
   Real sl = 0;
   for (Index b = 0; b < ny; ++b) sl += row_sums_[b];
-  const Real k_area = scale_ * gx * gy;
-  energy_ = k_area * sl;
+  energy_ = scale_ * gx_ * gy_ * sl;
+}
 
-  // Through the node positions: sigma' A V_j sum_c H_H(x_c - x_j) n_c / m, and
-  // gamma_j = sigma' A V_j^2 sum_c n_c . grad W_H(x_c - x_j) for the volumes.
-  // H_H d = grad (1 - q)^2 ((1 - q) d - 3 (r . d) r / (H |r|)).
+// W12 through the node positions: sigma' A V_j sum_c H_H(x_c - x_j) n_c / m,
+// and gamma_j = sigma' A V_j^2 sum_c n_c . grad W_H(x_c - x_j) for the
+// volumes (A = gx gy, a node's area). Runs whose length is a multiple of 8
+// (every run without a periodic x axis, and any other run of such a length)
+// take eight nodes at a time into lanes that are summed once per particle.
+void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) {
+  const Real* nxs = node_x_.data();
+  const Real* nys = node_y_.data();
+  const Real* vol = vol_.data();
+  Real* gamma = gamma_.data();
+  Vec2* acc = acc_.data();
+  const Real inv_h = w_.inv_h, grad = w_.grad, gx = gx_;
+  const Real k_area = scale_ * gx_ * gy_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
     Real fx = 0, fy = 0, ng = 0;
-#if defined(__AVX512F__)
-    // Runs whose length is a multiple of 8 (every run without a periodic x
-    // axis, and any other run of such a length): eight nodes at a time into
-    // lanes that are summed once per particle.
-    __m512d lx = _mm512_setzero_pd(), ly = _mm512_setzero_pd(), ln = _mm512_setzero_pd();
-    const __m512d iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
-    const __m512d v_gx = _mm512_set1_pd(gx);  // v_inv_h, v_one, v_zero: above
-    const __m512d v_3inv_h = _mm512_set1_pd(3 * inv_h), v_grad = _mm512_set1_pd(grad);
-    const __m512d v_tiny = _mm512_set1_pd(1e-300);
+#if SPHFLUID_AVX512
+    using simd::D8;
+    D8 lx = simd::zero<D8>(), ly = lx, ln = lx;
+    const D8 iota = D8(_mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7));
+    const D8 v_gx = D8::splat(gx), v_inv_h = D8::splat(inv_h), v_grad = D8::splat(grad);
 #endif
-    visit_rows(x[j], 0, ny, [&](std::size_t c0, Index count, Real rx0, Real dy) {
+    visit_rows(x[j], 0, ny_, [&](std::size_t c0, Index count, Real rx0, Real dy) {
       const Real* ncx = nxs + c0;
       const Real* ncy = nys + c0;
-#if defined(__AVX512F__)
+#if SPHFLUID_AVX512
       if (count % 8 == 0) {
-        const __m512d v_dy = _mm512_set1_pd(dy), v_dy2 = _mm512_set1_pd(dy * dy);
-        const __m512d v_rx0 = _mm512_set1_pd(rx0);
+        const D8 v_dy = D8::splat(dy), v_dy2 = D8::splat(dy * dy), v_rx0 = D8::splat(rx0);
         for (Index i = 0; i < count; i += 8) {
-          const __m512d rx =
-              _mm512_fmadd_pd(_mm512_add_pd(_mm512_set1_pd(Real(i)), iota), v_gx, v_rx0);
-          const __m512d rl = _mm512_sqrt_pd(_mm512_fmadd_pd(rx, rx, v_dy2));
-          const __m512d om = _mm512_max_pd(_mm512_fnmadd_pd(rl, v_inv_h, v_one), v_zero);
-          const __m512d cx = _mm512_loadu_pd(ncx + i), cy = _mm512_loadu_pd(ncy + i);
-          const __m512d rd = _mm512_fmadd_pd(rx, cx, _mm512_mul_pd(v_dy, cy));
-          const __m512d t =
-              _mm512_div_pd(_mm512_mul_pd(v_3inv_h, rd), _mm512_max_pd(rl, v_tiny));
-          const __m512d c2 = _mm512_mul_pd(v_grad, _mm512_mul_pd(om, om));
-          lx = _mm512_fmadd_pd(c2, _mm512_fmsub_pd(om, cx, _mm512_mul_pd(t, rx)), lx);
-          ly = _mm512_fmadd_pd(c2, _mm512_fmsub_pd(om, cy, _mm512_mul_pd(t, v_dy)), ly);
-          ln = _mm512_fmadd_pd(_mm512_mul_pd(c2, om), rd, ln);
+          const D8 rx = simd::fmadd(D8::splat(Real(i)) + iota, v_gx, v_rx0);
+          surface::node_force(rx, v_dy, v_dy2, D8::loadu(ncx + i), D8::loadu(ncy + i), v_inv_h,
+                              v_grad, lx, ly, ln);
         }
         return;
       }
 #endif
       const Real dy2 = dy * dy;
       // Sums of the row in locals (reduced straight into the references, the
-      // vector loop's lanes were added one by one through memory).
+      // lane loop's sums were added one by one through memory).
       Real sx = 0, sy = 0, sn = 0;
 #pragma omp simd reduction(+ : sx, sy, sn)
-      for (Index i = 0; i < count; ++i) {
-        const Real rx = rx0 + i * gx;
-        const Real rl = std::sqrt(rx * rx + dy2);
-        const Real om = std::max(1 - rl * inv_h, Real(0));
-        const Real rd = rx * ncx[i] + dy * ncy[i];
-        const Real t = 3 * rd * inv_h / std::max(rl, Real(1e-300));
-        const Real c2 = grad * om * om;
-        sx += c2 * (om * ncx[i] - t * rx);
-        sy += c2 * (om * ncy[i] - t * dy);
-        sn += c2 * om * rd;
-      }
+      for (Index i = 0; i < count; ++i)
+        surface::node_force(rx0 + i * gx, dy, dy2, ncx[i], ncy[i], inv_h, grad, sx, sy, sn);
       fx += sx;
       fy += sy;
       ng += sn;
     });
-#if defined(__AVX512F__)
-    fx += _mm512_reduce_add_pd(lx);
-    fy += _mm512_reduce_add_pd(ly);
-    ng += _mm512_reduce_add_pd(ln);
+#if SPHFLUID_AVX512
+    fx += reduce_add(lx);
+    fy += reduce_add(ly);
+    ng += reduce_add(ln);
 #endif
     acc[j] = Vec2(fx, fy) * (k_area * vol[j] / mass);
     gamma[j] = k_area * vol[j] * vol[j] * ng;
   }
-  // Through the volumes: sum_l (gamma_j + gamma_l) grad W_H(x_j - x_l) / m.
-#if defined(__AVX512F__)
+}
+
+// W12 through the volumes: sum_l (gamma_j + gamma_l) grad W_H(x_j - x_l) / m.
+void SurfaceEnergy::volume_forces(const Vec2* x, Index n, Real mass, int threads) {
+  const Real* gamma = gamma_.data();
+  Vec2* acc = acc_.data();
+  const Real H2 = w_.h * w_.h, inv_h = w_.inv_h, grad = w_.grad;
+  [[maybe_unused]] const bool runs = kVectorRuns && !box_.any();
+#if SPHFLUID_AVX512
   if (runs) {
     room(bin_gamma_, static_cast<std::size_t>(n));
     bin_gamma_.resize(n);
@@ -442,28 +455,32 @@ void SurfaceEnergy::evaluate(const Vec2* x, Index n, Real mass, int threads) {
   for (Index j = 0; j < n; ++j) {
     const Vec2 xj = x[j];
     const Real gj = gamma[j];
-    Vec2 f = Vec2::Zero();
-#if defined(__AVX512F__)
-    if (runs) {  // (gamma_j + gamma_l) grad (1 - q)^3 r, eight candidates at a time
-      const __m512d v_gj = _mm512_set1_pd(gj), v_grad = _mm512_set1_pd(w_.grad);
-      __m512d lx = _mm512_setzero_pd(), ly = _mm512_setzero_pd();
-      near_lanes(j, [&](__mmask8 m, Index k, __m512d dx, __m512d dy, __m512d, __m512d a) {
-        const __m512d g = _mm512_add_pd(v_gj, _mm512_maskz_loadu_pd(m, bin_gamma_.data() + k));
-        const __m512d c = _mm512_mul_pd(_mm512_mul_pd(g, v_grad),
-                                        _mm512_mul_pd(_mm512_mul_pd(a, a), a));
-        lx = _mm512_mask3_fmadd_pd(c, dx, lx, m);
-        ly = _mm512_mask3_fmadd_pd(c, dy, ly, m);
+#if SPHFLUID_AVX512
+    if (runs) {  // eight candidates at a time
+      using simd::D8;
+      const D8 v_gj = D8::splat(gj), v_grad = D8::splat(grad), v_inv_h = D8::splat(inv_h);
+      D8 lx = simd::zero<D8>(), ly = lx;
+      near_lanes(xj, j, [&](simd::Mask8 m, Index k, D8 dx, D8 dy, D8 r2) {
+        const D8 a = max(D8::splat(1) - sqrt(r2) * v_inv_h, simd::zero<D8>());
+        const D8 c = surface::volume_pair(v_gj + D8::load(bin_gamma_.data() + k, m), v_grad, a);
+        lx = mask3_fmadd(c, dx, lx, m);
+        ly = mask3_fmadd(c, dy, ly, m);
       });
-      acc[j] += Vec2(_mm512_reduce_add_pd(lx), _mm512_reduce_add_pd(ly)) / mass;
+      acc[j] += Vec2(reduce_add(lx), reduce_add(ly)) / mass;
       continue;
     }
 #endif
+    Real fx = 0, fy = 0;
     for_near(j, [&](Index l) {
       const Vec2 r = sep(xj, x[l]);
       const Real r2 = r.squaredNorm();
-      if (r2 < H2) f += (gj + gamma[l]) * w_.gradient(r, std::sqrt(r2));
+      if (!(r2 < H2)) return;
+      const Real a = std::max(1 - std::sqrt(r2) * inv_h, Real(0));
+      const Real c = surface::volume_pair(gj + gamma[l], grad, a);
+      fx = simd::fmadd(c, r.x(), fx);
+      fy = simd::fmadd(c, r.y(), fy);
     });
-    acc[j] += f / mass;
+    acc[j] += Vec2(fx, fy) / mass;
   }
 }
 

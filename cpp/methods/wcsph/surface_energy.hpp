@@ -59,7 +59,24 @@ class SurfaceEnergy {
  private:
   // The flat-surface calibration: the sum per unit length for sigma' = 1.
   Real flat_length(Real spacing) const;
+  // The phases of evaluate().
+  void place_window(const Vec2* x, Index n);
   void bin_particles(const Vec2* x, Index n);
+  void volumes(const Vec2* x, Index n, int threads);
+  void scatter_gradient(const Vec2* x, int threads);
+  void normalise_nodes(int threads);
+  void node_forces(const Vec2* x, Index n, Real mass, int threads);
+  void volume_forces(const Vec2* x, Index n, Real mass, int threads);
+  // The traversals the phases share.
+  template <class Row>
+  void visit_rows(const Vec2& xj, Index row_lo, Index row_hi, Row&& row) const;
+  template <class F>
+  void for_near(Index j, F&& f) const;
+  template <class F>
+  void near_lanes(const Vec2& xj, Index j, F&& f) const;
+  Vec2 sep(const Vec2& p, const Vec2& q) const {
+    return box_.any() ? box_.delta(p, q) : Vec2(p - q);
+  }
 
   Wendland w_{1};
   Real scale_ = 0, g_ = 0, eps_ = 0;

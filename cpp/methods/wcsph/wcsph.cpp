@@ -1,127 +1,172 @@
-// The wcsph method: weakly compressible SPH as engineers use it (Monaghan 1994,
-// 2005; Becker & Teschner 2007). Summation density with the Wendland C2 kernel,
-// Tait EOS clamped at rho0 (no tension), symmetric pressure gradient, Monaghan's
-// artificial viscosity beside Morris' physical viscosity, surface tension as
-// minus the gradient of a surface energy (surface_energy.hpp), kick-drift-kick
-// time stepping, and the same walls (ghosts + reflection) as the seed method.
+// The wcsph method's step (docs/method-wcsph.md) as ordered phases, each one
+// parallel loop whose sums do not depend on the thread count: kick-drift-kick
+// (W14) around the evaluation of the summation density (W2), the Tait state
+// equation (W3), the pair forces (W4-W6), the walls (W7-W9) and the tension
+// (W10-W12).
+#include "methods/wcsph/wcsph.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-#include "solver.hpp"
-#include "terms/wendland.hpp"
+#include "methods/wcsph/pairs.hpp"
+#include "neighbours/frames.hpp"
+#include "neighbours/pair_loops.hpp"
 
 namespace sphfluid {
 
-namespace {
-
-// f(r1, d1, r2, d2) for each pair of perpendicular wall ghosts in a row (r_k
-// from the ghost to the particle, d_k = |r_k|): the particle is in a corner, and
-// the two walls' shares both cover the quadrant beyond it.
-template <class F>
-void for_each_corner(Row<Vec2> ghosts, F f) {
-  for (const Vec2* a = ghosts.begin(); a != ghosts.end(); ++a)
-    for (const Vec2* b = a + 1; b != ghosts.end(); ++b) {
-      const Real da = a->norm(), db = b->norm();
-      if (da > 0 && db > 0 && std::abs(a->dot(*b)) < Real(1e-6) * da * db) f(*a, da, *b, db);
-    }
+WcsphMethod::WcsphMethod(Context& ctx)
+    : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
+  walls_.build(P_.spacing, P_.mass / P_.rho0);
+  if (P_.sigma > 0)  // surface_energy.hpp: colour kernel support 2 h, nodes dx/2 apart
+    surface_ = SurfaceEnergy(P_.sigma, 2 * P_.h,
+                             P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0),
+                             P_.domain_min, ctx.box);
 }
 
-}  // namespace
+void WcsphMethod::select(unsigned features) {
+  static constexpr auto steps = feature_table<Steps, StepFn>();
+  static constexpr auto evals = feature_table<Evaluations, EvalFn>();
+  step_fn_ = steps[features];
+  eval_fn_ = evals[features];
+}
 
-void Solver::select_wcsph_step() {
-  static const StepFn steps[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_step_impl);
-  static const EvalFn evals[kNumFeatureSets] = SPHFLUID_FEATURE_TABLE(wcsph_evaluate_impl);
-  step_fn_ = steps[features_];
-  eval_fn_ = evals[features_];
+// Tait (clamped at rho0): B/((g-1) rho0) (r^(g-1) - 1) + B (1/rho - 1/rho0) per kg.
+Real WcsphMethod::elastic_energy() const {
+  const Real g = wcsph::kTaitGamma, B = P_.rho0 * P_.c0 * P_.c0 / g;
+  Real elastic = 0;
+  for (Index i = 0; i < ctx_.size(); ++i) {
+    const Real rc = std::max(ctx_.ps.rho[i] / P_.rho0, Real(1));
+    elastic += P_.mass * (B / ((g - 1) * P_.rho0) * (std::pow(rc, g - 1) - 1) +
+                          B * (1 / (rc * P_.rho0) - 1 / P_.rho0));
+  }
+  return elastic;
+}
+
+std::size_t WcsphMethod::bytes() const {
+  return (por2_.capacity() + inv_rho_.capacity()) * sizeof(Real) + walls_.bytes() +
+         surface_.bytes();
+}
+
+template <class L>
+wcsph::PairConstants<L> WcsphMethod::constants() const {
+  const Real hs = Real(0.5) * P_.h;  // the smoothing length (support 2 hs)
+  return {simd::splat<L>(kernel_.inv_h), simd::splat<L>(kernel_.grad), simd::splat<L>(P_.mass),
+          simd::splat<L>(Real(0.01) * hs * hs),
+          simd::splat<L>(P_.alpha * P_.c0 * hs),  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
+          simd::splat<L>(P_.mass * 2 * P_.eta)};
 }
 
 // Kick-drift-kick: v += dt/2 a; x += dt v (walls reflect); evaluate at the new
 // positions (the dissipative terms with the half-step velocity); v += dt/2 a.
 template <unsigned F>
-void Solver::wcsph_step_impl(Real dt, Real dt_cap) {
-  dt = step_size(dt, dt_cap);
+void WcsphMethod::step_impl(Real dt, Real dt_cap) {
+  dt = ctx_.step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
   // The drift starts from the positions of the last evaluation (the end of
-  // the previous step, or compute_forces after the state or the walls
-  // changed), so the wall clearances of its find_ghosts hold for them.
-  integrate<F>(dt, half);  // the first kick and the drift, checked by the guard
-  mark(kIntegrate);
-  if (!all_inside_) remove_outside_domain();
-  mark(kDomain);
-  wcsph_evaluate_kick<F>(half);  // the second kick rides on the force loop
-  mark(kIntegrate);
-  time_ += dt;
-  ++step_count_;
+  // the previous step, or an evaluation after the state or the walls
+  // changed), so the wall clearances of its ghost search hold for them.
+  ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, half);
+  ctx_.timer.mark(kIntegrate);
+  ctx_.leave_domain();
+  ctx_.timer.mark(kDomain);
+  evaluate_kick<F>(half);  // the second kick rides on the last loop
+  ctx_.timer.mark(kIntegrate);
+  ctx_.advance(dt);
 }
 
-// The fluid pairs of wcsph_evaluate_impl (pressure, artificial and physical
-// viscosity), each pair once: the pair force is antisymmetric, so j gets minus
-// what i gets. Blocks as in seed_pairs_once (sums in one order whatever the
-// thread count). Leaves the accelerations from fluid pairs in a[].
-template <bool Viscosity>
-void Solver::wcsph_pairs_once() {
-  const Index n = size();
-  const SimParams& P = params_;
-  const Wendland& W = wendland_;
-  const Vec2* x = ps_.x.data();
-  const Vec2* v = ps_.v.data();
-  const Real* rho = ps_.rho.data();
-  const Real* por2 = p_over_rho2_.data();
-  const Real* inv_rho = inv_rho_.data();
-  Vec2* a = ps_.a.data();
-  const Real m = P.mass, hs = Real(0.5) * P.h;
-  const Real eps2 = Real(0.01) * hs * hs;
-  const Real av = P.alpha * P.c0 * hs;
-  [[maybe_unused]] const Real eta2 = 2 * P.eta;
-  const Index block = pair_block(), blocks = (n + block - 1) / block;
-  if (!half_lists_ || nbrs_.rows() != n)
-    throw std::logic_error("the pair-once loop needs this evaluation's half lists");
-#pragma omp parallel for schedule(static) num_threads(team())
-  for (Index b = 0; b < blocks; ++b) {
-    const Index lo = b * block, hi = std::min(n, lo + block);
-    std::fill(a + lo, a + hi, Vec2::Zero());
-    for (Index i = lo; i < hi; ++i) {
-      const Vec2 xi = x[i], vi = v[i];
-      const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
-      Vec2 fi = a[i];  // from the pairs with earlier particles of the block
-      for (const Index j : nbrs_.row(i)) {
-        // The row holds j > i and the j of earlier blocks; a pair across
-        // blocks is in both rows, and each side takes its own share.
-        const bool mine = j > i && j < hi;
-        const Vec2 r = xi - x[j];
-        const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
-        const Vec2 gw = W.gradient(r, rl);
-        const Vec2 vij = vi - v[j];
-        Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
-        const Real vr = vij.dot(r);
-        const Real inv_r2e = 1 / (r2 + eps2);  // one division for both viscosities
-        if (vr < 0) coef -= av * vr * inv_r2e * 2 / (rhoi + rho[j]);  // + Pi_ij
-        Vec2 fij = -(m * coef) * gw;
-        if constexpr (Viscosity)  // Morris, Fox & Zhu (1997)
-          fij += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
-        fi += fij;
-        if (mine) a[j] -= fij;
-      }
-      a[i] = fi;
-    }
+template <unsigned F>
+void WcsphMethod::evaluate_kick(Real half) {
+  ctx_.timer.start();
+  density<F>();
+  if constexpr ((F & kSurfaceTension) != 0) {
+    surface_.evaluate(ctx_.ps.x.data(), ctx_.size(), P_.mass, ctx_.team());
+    ctx_.timer.mark(kForces);
+  }
+  state<F>();
+  forces<F>();
+  accelerations<F>(half);
+}
+
+// W2 over the fluid pairs (with the neighbour search), and the walls' ghosts:
+// only ghosts on a segment's interior stand for a straight wall's fluid side;
+// beyond a segment's free end the reflection alone acts.
+template <unsigned F>
+void WcsphMethod::density() {
+  ParticleSet& ps = ctx_.ps;
+  if constexpr (by_cells(F)) {
+    ctx_.search.clusters(ps, P_.h, P_.mass, ctx_.team(), weight_, ctx_.timer);
+  } else {
+    ctx_.search.lists<(F & kPeriodic) != 0, pairs_once(F)>(ps, P_.h, P_.mass, ctx_.team(),
+                                                           ctx_.box, weight_, ctx_.timer);
+  }
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.find(ctx_.walls, ps.x.data(), ps.size(), P_.h, ctx_.team(), true);
+    ctx_.timer.mark(kGhosts);
   }
 }
 
-// The same by cell clusters (cell_pairs.hpp), without lists.
+// The walls' share of the density (W7), for the particles that have ghosts,
+// then the state equation (W3) for all, in a loop the compiler vectorises.
+template <unsigned F>
+void WcsphMethod::state() {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  const Real rho0 = P_.rho0, B = rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
+  const Real pb = P_.background_pressure;
+  Real* rho = ps.rho.data();
+  Real* p = ps.p.data();
+  por2_.resize(n);
+  inv_rho_.resize(n);
+  Real* por2 = por2_.data();
+  Real* inv_rho = inv_rho_.data();
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+      Real rho_i = rho[i];
+      wcsph::add_wall_density(walls_, rho0, ghosts, rho_i);
+      rho[i] = rho_i;
+    });
+  }
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    p[i] = wcsph::pressure(rho[i], rho0, B, pb);
+    inv_rho[i] = 1 / rho[i];
+    por2[i] = p[i] * inv_rho[i] * inv_rho[i];
+  }
+  ctx_.timer.mark(kDensity);
+}
+
+// The fluid pairs (W4-W6) into a[]: each pair once by cell clusters or over
+// the half lists, the walls' share (W8-W9) after; or, across periodic seams,
+// each particle over its full list with its walls right after.
+template <unsigned F>
+void WcsphMethod::forces() {
+  if constexpr (by_cells(F)) {
+    forces_by_cells<(F & kViscosity) != 0>();
+  } else {
+    forces_by_lists<F>();
+  }
+  if constexpr (pairs_once(F) && (F & kWalls) != 0) {
+    Vec2* a = ctx_.ps.a.data();
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2>) {
+      Vec2 f = a[i];
+      add_wall_force<F>(i, f);
+      a[i] = f;
+    });
+  }
+}
+
 template <bool Viscosity>
-void Solver::wcsph_forces_by_cells() {
-#if SPHFLUID_CELL_PAIRS
+void WcsphMethod::forces_by_cells() {
+#if SPHFLUID_AVX512
   if constexpr (CellPairs::kAvailable) {
-    const SimParams& P = params_;
-    const Real hs = Real(0.5) * P.h;
-    const Real eps2 = Real(0.01) * hs * hs, av = P.alpha * P.c0 * hs;
-    const Real m_eta2 = P.mass * 2 * P.eta;
-    const CellPairs::WcsphPair<Viscosity> pair(ps_.v.data(), ps_.rho.data(), p_over_rho2_.data(),
-                                               inv_rho_.data(), wendland_.inv_h, wendland_.grad,
-                                               P.mass, eps2, av, m_eta2);
-    cell_pairs_.wcsph_forces<Viscosity>(grid_, ps_.x.data(), P.h, pair, ps_.a.data(), team());
+    ParticleSet& ps = ctx_.ps;
+    // four lanes a group: the pair force's arithmetic outweighs the traversal
+    const PositionFrame<simd::D4> frame(ps.x.data(), P_.h);
+    const wcsph::ForcePairs<simd::D4, Viscosity> pair{
+        ps.rho.data(), por2_.data(), inv_rho_.data(), {ps.v.data()}, constants<simd::D4>()};
+    ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pair, ps.a.data(), ctx_.team());
     return;
   }
 #endif
@@ -129,164 +174,76 @@ void Solver::wcsph_forces_by_cells() {
 }
 
 template <unsigned F>
-void Solver::wcsph_evaluate_impl() {
-  wcsph_evaluate_kick<F>(0);
+void WcsphMethod::forces_by_lists() {
+  constexpr bool kVisc = (F & kViscosity) != 0;
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  Vec2* a = ps.a.data();
+  const wcsph::ForcePairs<Real, kVisc> forces{ps.rho.data(), por2_.data(), inv_rho_.data(),
+                                              {ps.v.data()}, constants<Real>()};
+  if constexpr (pairs_once(F)) {
+    if (!ctx_.search.has_half_lists(n))
+      throw std::logic_error("the pair-once loop needs this evaluation's half lists");
+    auto none = [](Index, const Vec2&) {};
+    const wcsph::ListVisitor<kVisc, false, decltype(none)> visitor{forces, a, none};
+    pair_loops::once(ctx_.search.lists(), ps.x.data(), n, NeighbourSearch::pair_block(n),
+                     ctx_.team(), visitor);
+  } else {
+    auto finish = [&](Index i, const Vec2& sum) {
+      Vec2 f = sum;
+      if constexpr ((F & kWalls) != 0) add_wall_force<F>(i, f);
+      a[i] = f;
+    };
+    const wcsph::ListVisitor<kVisc, true, decltype(finish)> visitor{forces, a, finish};
+    const PeriodicBox& box = ctx_.box;
+    pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
+                       [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
+  }
 }
 
-// The evaluation; with half > 0 also the second half-kick, v += half a, each
-// particle's as soon as its acceleration is known, into a fresh buffer: a
-// non-finite result keeps the half-step velocities.
 template <unsigned F>
-void Solver::wcsph_evaluate_kick(Real half) {
-  mark_ = std::chrono::steady_clock::now();
-  const Index n = size();
-  const SimParams& P = params_;
-  const Wendland& W = wendland_;
-  // summation density, self included
-  if constexpr (wcsph_by_cells(F)) {
-    sort_and_sum_density_by_cells(Wendland::OfR2{&W});
-  } else {
-    sort_and_find_neighbours<(F & kPeriodic) != 0, pairs_once(F)>(Wendland::OfR2{&W});
-  }
-  if constexpr ((F & kWalls) != 0) {
-    // Only ghosts on a segment's interior stand for a straight wall's fluid
-    // side; beyond a segment's free end the reflection alone acts.
-    find_ghosts(true);
-    mark(kGhosts);
-  }
+void WcsphMethod::add_wall_force(Index i, Vec2& f) const {
+  const ParticleSet& ps = ctx_.ps;
+  wcsph::add_wall_force<(F & kViscosity) != 0>(walls_, kernel_, constants<Real>(), P_.rho0,
+                                                ctx_.ghosts.row(i), por2_[i], inv_rho_[i],
+                                                ps.v[i], f);
+}
 
-  if constexpr ((F & kSurfaceTension) != 0) {
-    surface_.evaluate(ps_.x.data(), n, P.mass, team());
-    mark(kForces);
-  }
-  const Real rho0 = P.rho0, B = rho0 * P.c0 * P.c0 / SimParams::kTaitGamma;
-  const Real pb = P.background_pressure;
-  Real* rho = ps_.rho.data();
-  Real* p = ps_.p.data();
-  p_over_rho2_.resize(n);
-  inv_rho_.resize(n);
-  Real* por2 = p_over_rho2_.data();
-  Real* inv_rho = inv_rho_.data();
-  if constexpr ((F & kWalls) != 0) {
-    // The walls' share first, for the particles that have ghosts. Each ghost
-    // stands for the wall's half-plane filled with fluid at rho0: its share of
-    // the density is rho0 times the kernel's integral over it.
-    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
-      Real rho_i = rho[i];
-      for (const Vec2& r : ghosts) rho_i += rho0 * W.wall_half(r.norm());
-      // ... and a corner's quadrant once, not twice.
-      for_each_corner(ghosts, [&](const Vec2&, Real d1, const Vec2&, Real d2) {
-        rho_i -= rho0 * W.corner_half(d1, d2);
-      });
-      rho[i] = rho_i;
-    });
-  }
-  // The EOS for all, in a loop the compiler vectorises.
-#pragma omp parallel for schedule(static) num_threads(team())
-  for (Index i = 0; i < n; ++i) {
-    const Real rho_i = rho[i];
-    // Tait, gamma = 7, plus the background pressure, clamped at 0: a free
-    // surface cannot pull (negative pressures there cause the tensile
-    // instability; SPlisHSPlasH's WCSPH clamps the same way). With p_b = 0 this
-    // is the density clamped at rho0 from below.
-    const Real r = rho_i / rho0, r2 = r * r, r3 = r2 * r;
-    p[i] = std::max(B * (r3 * r3 * r - 1) + pb, Real(0));
-    inv_rho[i] = 1 / rho_i;
-    por2[i] = p[i] * inv_rho[i] * inv_rho[i];
-  }
-  mark(kDensity);
-
-  const Vec2* x = ps_.x.data();
-  const Vec2* v = ps_.v.data();
-  Vec2* a = ps_.a.data();
-  const Real m = P.mass, hs = Real(0.5) * P.h;  // hs: the smoothing length (support 2 hs)
-  const Real eps2 = Real(0.01) * hs * hs;
-  const Real av = P.alpha * P.c0 * hs;  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
-  [[maybe_unused]] const Real eta2 = 2 * P.eta;
-  const Vec2 g = P.gravity;
-  // Without periodic seams, each fluid pair once: a[] holds the pair sums when
-  // the loop below starts.
-  constexpr bool kPairsOnce = pairs_once(F);
-  // The cell clusters have no minimum image: the gather loop below must stay off.
-  static_assert(!wcsph_by_cells(F) || pairs_once(F));
-  if constexpr (wcsph_by_cells(F)) {
-    wcsph_forces_by_cells<(F & kViscosity) != 0>();
-  } else if constexpr (kPairsOnce) {
-    wcsph_pairs_once<(F & kViscosity) != 0>();
-  }
-  // A ghost at the foot of the perpendicular stands for the wall's half-plane
-  // of fluid at rest with the particle's pressure (its positive part: walls
-  // push, never pull). The pressure pair summed over that half-plane is
-  // 2 p_i rho0 / rho_i^2 times the kernel's integral along the wall line,
-  // pointing away from the wall. Added to f.
-  [[maybe_unused]] const auto add_walls = [&](Vec2& f, Row<Vec2> ghosts, Real pi2, Real inv_i,
-                                              const Vec2& vi) {
-    const Real pw2 = std::max(pi2, Real(0));
-    for (const Vec2& r : ghosts) {
-      const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
-      const Vec2 gw = W.gradient(r, rl);
-      if (rl > 0) f += (2 * pw2 * rho0 * W.wall_line(rl) / rl) * r;
-      const Real vr = vi.dot(r);
-      if (vr < 0) f += (m * av * vr / (r2 + eps2) * inv_i) * gw;
-      if constexpr ((F & kViscosity) != 0)
-        f += (m * eta2 * inv_i * inv_i * r.dot(gw) / (r2 + eps2)) * vi;
-    }
-    // In a corner both walls' pushes include the quadrant beyond it: once only.
-    for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-      f -= (2 * pw2 * rho0) * (W.corner_line(d1, d2) / d1 * r1 + W.corner_line(d2, d1) / d2 * r2);
-    });
-  };
-  if constexpr (kPairsOnce && ((F & kWalls) != 0)) {
-    // a[] holds the pair sums: the walls' share first, for the particles that
-    // have ghosts (the same arithmetic as in the loop below otherwise).
-    ghosts_.for_each_nonempty_row(team(), [&](Index i, Row<Vec2> ghosts) {
-      Vec2 f = a[i];
-      add_walls(f, ghosts, por2[i], inv_rho[i], v[i]);
-      a[i] = f;
-    });
-  }
+// a = f + the tension (W12) + g (W13); with half > 0 also the second half-kick,
+// v += half a, each particle's as soon as its acceleration is known, into a
+// fresh buffer: a non-finite result keeps the half-step velocities.
+template <unsigned F>
+void WcsphMethod::accelerations(Real half) {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  const Vec2* v = ps.v.data();
+  Vec2* a = ps.a.data();
   [[maybe_unused]] const Vec2* surface_acc = surface_.accelerations();
+  const Vec2 g = P_.gravity;
   const bool kick = half > 0;
-  Vec2* v_new = kick ? ps_.v.begin_write(n) : nullptr;
+  Vec2* v_new = kick ? ps.v.begin_write(n) : nullptr;
   bool bad = false;
-#pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad)
+#pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(|| : bad)
   for (Index i = 0; i < n; ++i) {
-    const Vec2 xi = x[i], vi = v[i];
-    const Real rhoi = rho[i], pi2 = por2[i], inv_i = inv_rho[i];
-    Vec2 f = Vec2::Zero();
-    if constexpr (kPairsOnce) f = a[i];
-    if constexpr (!kPairsOnce) for (const Index j : nbrs_.row(i)) {
-      const Vec2 r = separation<F>(xi, x[j]);
-      const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
-      const Vec2 gw = W.gradient(r, rl);
-      const Vec2 vij = vi - v[j];
-      Real coef = pi2 + por2[j];  // p_i/rho_i^2 + p_j/rho_j^2
-      const Real vr = vij.dot(r);
-      const Real inv_r2e = 1 / (r2 + eps2);  // one division for both viscosities
-      if (vr < 0) coef -= av * vr * inv_r2e * 2 / (rhoi + rho[j]);  // + Pi_ij
-      f -= (m * coef) * gw;
-      if constexpr ((F & kViscosity) != 0)  // Morris, Fox & Zhu (1997)
-        f += (m * eta2 * inv_i * inv_rho[j] * r.dot(gw) * inv_r2e) * vij;
-    }
-    if constexpr (((F & kWalls) != 0) && !kPairsOnce) add_walls(f, ghosts_.row(i), pi2, inv_i, vi);
+    Vec2 f = a[i];
     if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
     a[i] = f + g;
     if (kick) {
-      v_new[i] = vi + half * a[i];
+      v_new[i] = v[i] + half * a[i];
       bad = bad || !v_new[i].allFinite();
     }
   }
-  mark(kForces);
+  ctx_.timer.mark(kForces);
   if (!kick) return;
   if (bad) {
     for (Index i = 0; i < n; ++i)
       if (!v_new[i].allFinite())
-        throw InstabilityError("step " + std::to_string(step_count_ + 1) + ": particle id " +
-                               std::to_string(ps_.id[i]) + " got a non-finite velocity in the "
-                               "second half-kick [check: finite] (the state kept is the "
-                               "half step)");
+        throw InstabilityError("step " + std::to_string(ctx_.step_count() + 1) +
+                               ": particle id " + std::to_string(ps.id[i]) +
+                               " got a non-finite velocity in the second half-kick [check: "
+                               "finite] (the state kept is the half step)");
   }
-  ps_.v.commit_write();
+  ps.v.commit_write();
 }
 
 }  // namespace sphfluid

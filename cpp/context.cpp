@@ -1,0 +1,157 @@
+// The shared services of a step that are not the integration: the time-step
+// control, the guard's messages, the domain's edge and the periodic wrap.
+#include "context.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace sphfluid {
+
+std::string fmt(Real x) {
+  if (std::isnan(x)) return "nan";  // not "-nan": the sign of a NaN means nothing
+  std::ostringstream s;
+  s.precision(6);
+  s << x;
+  return s.str();
+}
+
+std::string fmt(const Vec2& u) { return "(" + fmt(u.x()) + ", " + fmt(u.y()) + ")"; }
+
+Context::Context(const SimParams& params, std::vector<Segment> segments)
+    : box(params.domain_min, params.domain_max, params.periodic_x, params.periodic_y),
+      walls(std::move(segments), params.h),
+      params_(params),
+      threads_(resolve_threads(params.threads)) {}
+
+// The largest dt allowed by the sound-speed/flow CFL, force and viscous
+// conditions (SimParams), from the accelerations just computed.
+Real Context::choose_dt(Real dt_cap) {
+  const Index n = size();
+  const Vec2* v = ps.v.data();
+  const Vec2* a = ps.a.data();
+  Real v2 = 0, a2 = 0;
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(max : v2, a2)
+  for (Index i = 0; i < n; ++i) {
+    v2 = std::max(v2, v[i].squaredNorm());
+    a2 = std::max(a2, a[i].squaredNorm());
+  }
+  const SimParams& P = params_;
+  const Real inf = std::numeric_limits<Real>::infinity();
+  const Real l = step_length;
+  Real dt = P.cfl * l / (sound_speed + std::sqrt(v2));
+  TimeStepLimit limit = TimeStepLimit::kCfl;
+  auto consider = [&](Real candidate, TimeStepLimit why) {
+    if (candidate < dt) {
+      dt = candidate;
+      limit = why;
+    }
+  };
+  consider(a2 > 0 ? SimParams::kForceFactor * std::sqrt(l / std::sqrt(a2)) : inf,
+           TimeStepLimit::kForce);
+  consider(P.eta > 0 ? SimParams::kViscousFactor * l * l * P.rho0 / P.eta : inf,
+           TimeStepLimit::kViscous);
+  consider(P.dt_max > 0 ? P.dt_max : inf, TimeStepLimit::kMax);
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " + fmt(time_) +
+                           " s): no finite time step satisfies the stability conditions "
+                           "(max speed " + fmt(std::sqrt(v2)) + " m/s, max acceleration " +
+                           fmt(std::sqrt(a2)) + " m/s^2)");
+  // A step shortened to land on an end time keeps the label of the condition
+  // that limits the flow itself.
+  last_limit_ = limit;
+  return dt_cap > 0 ? std::min(dt, dt_cap) : dt;
+}
+
+Real Context::step_size(Real dt, Real dt_cap) {
+  if (dt > 0) {
+    last_limit_ = TimeStepLimit::kFixed;
+  } else {
+    dt = choose_dt(dt_cap);
+  }
+  last_dt_ = dt;
+  return dt;
+}
+
+void Context::trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho_new,
+                   Real kinetic) const {
+  const Index n = size();
+  const Real rho0 = params_.rho0, c = sound_speed;
+  const std::string where = "step " + std::to_string(step_count_ + 1) + " (t = " +
+                            fmt(time_ + dt) + " s): particle id ";
+  for (Index i = 0; i < n; ++i) {
+    const std::string who = where + std::to_string(ps.id[i]);
+    const std::string numbers = " (acceleration " + fmt(ps.a[i]) + " m/s^2, density " +
+                                fmt(ps.rho[i]) + " kg/m^3, pressure " + fmt(ps.p[i]) +
+                                " Pa, position " + fmt(ps.x[i]) + ", velocity " +
+                                fmt(ps.v[i]) + ")";
+    if (!(x_new[i].allFinite() && v_new[i].allFinite()))
+      throw InstabilityError(who + " got a non-finite velocity or position [check: finite]" +
+                             numbers);
+    if (!params_.guard && rho_new[i] > 0) continue;
+    if (!(rho_new[i] <= params_.guard_density_ratio * rho0 && rho_new[i] > 0))
+      throw InstabilityError(who + ": density " + fmt(rho_new[i]) + " kg/m^3 is over " +
+                             fmt(params_.guard_density_ratio) + " rho0 [check: density]" +
+                             numbers);
+    const Real speed = v_new[i].norm();
+    if (!(speed <= params_.guard_speed_factor * c))
+      throw InstabilityError(who + ": speed " + fmt(speed) + " m/s is over " +
+                             fmt(params_.guard_speed_factor) + " times the speed of sound " +
+                             fmt(c) + " m/s [check: speed]" + numbers);
+  }
+  Index fastest = 0;
+  for (Index i = 1; i < n; ++i)
+    if (v_new[i].squaredNorm() > v_new[fastest].squaredNorm()) fastest = i;
+  const std::string carried =
+      energy_removed > 0 ? " plus " + fmt(energy_removed) + " J/m carried out of the domain by " +
+                               "the particles removed"
+                         : std::string();
+  throw InstabilityError(
+      where + std::to_string(n > 0 ? ps.id[fastest] : -1) + " is the fastest at " +
+      fmt(n > 0 ? v_new[fastest].norm() : 0) + " m/s: the kinetic energy " + fmt(kinetic) +
+      " J/m" + carried + " exceeds " + fmt(params_.guard_energy_factor) +
+      " times all the energy the scene can supply (" + fmt(energy_budget) +
+      " J/m) [check: energy]");
+}
+
+void Context::remove_outside_domain() {
+  const Index n = size();
+  const Vec2* x = ps.x.data();
+  const Vec2 lo = params_.domain_min, hi = params_.domain_max;
+  auto inside = [&](const Vec2& p) {
+    return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+  };
+  // Whether any particle is outside (a NaN coordinate counts as outside), in a
+  // loop without branches that the compiler vectorises; where, only then.
+  const Real* xd = reinterpret_cast<const Real*>(x);
+  const Real lx = lo.x(), ly = lo.y(), hx = hi.x(), hy = hi.y();
+  int out = 0;
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(| : out)
+  for (Index i = 0; i < n; ++i)
+    out |= !(xd[2 * i] >= lx) | !(xd[2 * i] <= hx) | !(xd[2 * i + 1] >= ly) |
+           !(xd[2 * i + 1] <= hy);
+  if (!out) return;
+  Index first_out = 0;
+  while (inside(x[first_out])) ++first_out;
+  keep_.assign(n, 1);
+  Index removed = 0;
+  Real v2_out = 0;
+  for (Index i = first_out; i < n; ++i)
+    if (!inside(x[i])) {
+      keep_[i] = 0;
+      ++removed;
+      v2_out += ps.v[i].squaredNorm();
+    }
+  energy_removed += Real(0.5) * params_.mass * v2_out;
+  particles_changed();  // the clearances and the grid's last sort are by storage index
+  ps.compact(keep_);
+  removed_ += removed;
+}
+
+void Context::wrap_positions() {
+  if (!box.any()) return;
+  for (Index i = 0; i < size(); ++i) ps.x[i] = box.wrap(ps.x[i]);
+}
+
+}  // namespace sphfluid

@@ -1,0 +1,139 @@
+// What a method's step works on, and the services every method shares: the
+// particles, the parameters, the walls and their ghosts, the neighbour search,
+// the integrator with the blow-up guard, the time-step control, the domain's
+// edge and the clock. Knows no particular method: what it needs of one (its
+// speed of sound, the length in its time-step conditions) comes from the
+// method's registration (methods/method.hpp).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "boundary/ghosts.hpp"
+#include "boundary/periodic.hpp"
+#include "boundary/walls.hpp"
+#include "core/params.hpp"
+#include "core/particles.hpp"
+#include "core/timer.hpp"
+#include "core/types.hpp"
+#include "neighbours/search.hpp"
+
+namespace sphfluid {
+
+// Numerical blow-up detected during a step (arrives in Python as
+// sphfluid.InstabilityError, a RuntimeError).
+class InstabilityError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A number as the guard's messages print it ("nan", not "-nan").
+std::string fmt(Real x);
+std::string fmt(const Vec2& u);
+
+class Context {
+ public:
+  Context(const SimParams& params, std::vector<Segment> walls);
+
+  const SimParams& params() const { return params_; }
+  ParticleSet ps;
+  PeriodicBox box;
+  WallSet walls;
+  NeighbourSearch search;
+  Ghosts ghosts;
+  PhaseTimer timer;
+
+  Index size() const { return ps.size(); }
+  int threads() const { return threads_; }
+  void set_threads(int threads) { threads_ = resolve_threads(threads); }
+  // The threads of the step's loops: threads(), or one below kParallelMin
+  // particles (parallel.hpp).
+  int team() const { return threads_for(size(), threads_); }
+
+  // The clock and the counts.
+  Real time() const { return time_; }
+  std::int64_t step_count() const { return step_count_; }
+  Real last_dt() const { return last_dt_; }
+  TimeStepLimit last_limit() const { return last_limit_; }
+  std::int64_t removed() const { return removed_; }
+  // A step of dt is done.
+  void advance(Real dt) {
+    time_ += dt;
+    ++step_count_;
+  }
+
+  // This step's dt: the fixed one (dt > 0) or the largest the sound-speed and
+  // flow CFL, force and viscous conditions allow from the accelerations just
+  // computed (at most dt_cap when > 0); recorded as last_dt().
+  Real step_size(Real dt, Real dt_cap);
+
+  // v += kick a; x += dt v (semi-implicit Euler for kick = dt; the first half
+  // of kick-drift-kick for kick = dt/2), then the wall collision of the same
+  // particle (seed 4.2), written into fresh buffers; the guard then checks
+  // the new state (non-finite values, density, speed, kinetic energy), and
+  // only a good one replaces the old (else InstabilityError).
+  template <bool Walls, bool Periodic>
+  void integrate(Real dt, Real kick);
+  // Particles that left the domain are removed (and counted), unless the
+  // integration saw every particle inside.
+  void leave_domain() {
+    if (!all_inside_) remove_outside_domain();
+  }
+  void remove_outside_domain();
+  // Positions moved into the box along its periodic axes.
+  void wrap_positions();
+  // The particles were replaced, added or removed: the sort starts afresh and
+  // the walls' clearances are stale.
+  void particles_changed() {
+    search.forget_order();
+    ghosts.stale();
+  }
+
+  // The guard's budget: the energy the scene can supply, J per m of depth
+  // (set with the particles, Solver::compute_energy_budget), and the kinetic
+  // energy carried out of the domain by the particles removed since.
+  Real energy_budget = 0;
+  Real energy_removed = 0;
+  // The method's speed of sound and the length in its time-step conditions
+  // (its registration's values for these parameters).
+  Real sound_speed = 0, step_length = 0;
+
+  // Names the step, the time, the first particle that failed a check after an
+  // integration to (x_new, v_new) with densities rho_new, and the check.
+  [[noreturn]] void trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rho_new,
+                         Real kinetic) const;
+  std::size_t scratch_bytes() const { return keep_.capacity(); }
+
+ private:
+  Real choose_dt(Real dt_cap);
+  // The integration into x_new and v_new, eight particles at a time where the
+  // lanes run (without periodic seams), else one at a time: whether any check
+  // failed, the sum of the new |v|^2, and (eight at a time) the new
+  // positions' bounding box and whether their cells were looked ahead.
+  struct Integration {
+    bool bad = false;
+    Real v2_sum = 0;
+    bool box = false, ahead = false;
+    Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();
+  };
+  template <bool Walls>
+  Integration integrate8(Real dt, Real kick, Vec2* x_new, Vec2* v_new);
+  template <bool Walls, bool Periodic>
+  Integration integrate1(Real dt, Real kick, Vec2* x_new, Vec2* v_new);
+
+  const SimParams& params_;
+  int threads_ = 1;
+  Real time_ = 0;
+  Real last_dt_ = 0;
+  TimeStepLimit last_limit_ = TimeStepLimit::kFixed;
+  std::int64_t step_count_ = 0;
+  std::int64_t removed_ = 0;
+  // The last integration found every particle within the domain (its
+  // vector loop checks; remove_outside_domain's pass is then skipped).
+  bool all_inside_ = false;
+  std::vector<char> keep_;  // scratch for domain removal
+};
+
+}  // namespace sphfluid

@@ -1,0 +1,60 @@
+// What every SPH method gives the solver, and how a method is registered. A
+// method owns its per-particle data and a step specialised on the scene's
+// optional terms; the shared services of the Context (cpp/context.hpp) do the
+// rest. Adding a method: its folder under methods/, one entry in
+// methods/registry.cpp, one value of `Method` (core/params.hpp) and the scene
+// schema's choice.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+
+#include "core/params.hpp"
+#include "core/types.hpp"
+
+namespace sphfluid {
+
+class Context;
+
+class SphMethod {
+ public:
+  virtual ~SphMethod() = default;
+  // Specialise the step on the scene's optional terms (core/features.hpp),
+  // once, and again when they change (walls appear or vanish).
+  virtual void select(unsigned features) = 0;
+  // One step: of size dt > 0, or the adaptive one (at most dt_cap when > 0).
+  virtual void step(Real dt, Real dt_cap) = 0;
+  // Density, pressure and acceleration of the current state; nothing moves
+  // (storage may be re-ordered, as in every step).
+  virtual void evaluate() = 0;
+  // The elastic energy the state holds in the method's state equation, J per
+  // m of depth (the guard's budget).
+  virtual Real elastic_energy() const = 0;
+  // The surface energy of the last evaluation where the method's tension is
+  // one (J per m of depth), else 0.
+  virtual Real surface_energy() const { return 0; }
+  // The seed's pair forces: whether they run in float, and whether 1/r comes
+  // from Newton steps (other methods: false).
+  virtual bool float_pairs() const { return false; }
+  virtual bool recip_root() const { return false; }
+  // Heap bytes of the method's own arrays, capacity included.
+  virtual std::size_t bytes() const = 0;
+};
+
+// A method's registration: what the shared services need to know of it before
+// it runs, and how to make one.
+struct MethodEntry {
+  Method id;
+  const char* name;
+  // The speed of sound of its state equation, m/s, and the length in the
+  // time-step conditions, m.
+  Real (*sound_speed)(const SimParams&);
+  Real (*step_length)(const SimParams&);
+  // Throws std::invalid_argument for a parameter the method cannot run with.
+  void (*check)(const SimParams&);
+  std::unique_ptr<SphMethod> (*make)(Context&);
+};
+
+const MethodEntry& method_entry(Method id);
+
+}  // namespace sphfluid

@@ -1,0 +1,50 @@
+// The methods' registrations (methods/method.hpp): one entry a method.
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include "methods/method.hpp"
+#include "methods/seed/seed.hpp"
+#include "methods/wcsph/wcsph.hpp"
+
+namespace sphfluid {
+
+namespace {
+
+void require(bool ok, const char* what) {
+  if (!ok) throw std::invalid_argument(what);
+}
+
+template <class M>
+std::unique_ptr<SphMethod> make(Context& ctx) {
+  return std::make_unique<M>(ctx);
+}
+
+const MethodEntry kMethods[] = {
+    // The seed (docs/method-seed.md): c^2 = dp/drho = k for p = k (rho - rho0);
+    // the time-step conditions take the kernels' support h.
+    {Method::kSeed, "seed", [](const SimParams& p) { return std::sqrt(p.k); },
+     [](const SimParams& p) { return p.h; }, [](const SimParams&) {}, make<SeedMethod>},
+    // wcsph (docs/method-wcsph.md): the speed of sound c0 of its Tait state
+    // equation; the conditions take the smoothing length h/2 of its Wendland
+    // kernel (support 2 x h/2).
+    {Method::kWcsph, "wcsph", [](const SimParams& p) { return p.c0; },
+     [](const SimParams& p) { return p.h / 2; },
+     [](const SimParams& p) {
+       require(std::isfinite(p.c0) && p.c0 > 0, "wcsph needs a speed of sound c0 > 0");
+     },
+     make<WcsphMethod>},
+};
+
+}  // namespace
+
+const MethodEntry& method_entry(Method id) {
+  for (const MethodEntry& e : kMethods)
+    if (e.id == id) return e;
+  throw std::invalid_argument("unknown method");
+}
+
+Real SimParams::sound_speed() const { return method_entry(method).sound_speed(*this); }
+Real SimParams::step_length() const { return method_entry(method).step_length(*this); }
+
+}  // namespace sphfluid

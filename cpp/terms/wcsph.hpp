@@ -1,0 +1,125 @@
+// The wcsph method's equations (docs/method-wcsph.md), each written once: the
+// Tait state equation (W3), the pair force of the symmetric pressure gradient
+// (W4), Monaghan's artificial viscosity (W5) and Morris' viscosity (W6) on any
+// lane type (simd/lanes.hpp), and the walls' shares of the density (W7), the
+// pressure push (W8) and the viscous terms (W9) from the half-plane tables
+// (boundary/wall_tables.hpp). The density's weight (W2) is WendlandWeight
+// (terms/wendland.hpp). Values in, values out.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "boundary/wall_tables.hpp"
+#include "core/csr.hpp"
+#include "core/types.hpp"
+#include "simd/lanes.hpp"
+#include "terms/wendland.hpp"
+
+namespace sphfluid::wcsph {
+
+constexpr Real kTaitGamma = 7;
+
+// W3: Tait, gamma = 7, B = rho0 c0^2 / 7, plus the background pressure p_b,
+// clamped at 0: a free surface cannot pull (negative pressures there cause the
+// tensile instability; SPlisHSPlasH's WCSPH clamps the same way). With p_b = 0
+// this is the density clamped at rho0 from below.
+SPHFLUID_INLINE Real pressure(Real rho, Real rho0, Real B, Real pb) {
+  const Real r = rho / rho0, r2 = r * r, r3 = r2 * r;
+  return std::max(B * (r3 * r3 * r - 1) + pb, Real(0));
+}
+
+// The constants of the pair force: the kernel's 1/h and gradient factor, the
+// particle mass, eps^2 = 0.01 hs^2, alpha c0 hs and 2 m eta (hs = h/2, the
+// smoothing length of a kernel of support h).
+template <class L>
+struct PairConstants {
+  L inv_h, grad, m, eps2, av, m_eta2;
+};
+
+// W4-W6 for one pair on the lanes of `in` (r < h), as an acceleration on i
+// (j gets minus it):
+//   f = -m (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad W(r_ij)
+//       + 2 m eta / (rho_i rho_j) (r_ij . grad W) / (r^2 + eps^2) v_ij,
+// Pi_ij = -alpha c0 hs (v_ij . r_ij) / (r^2 + eps^2) * 2 / (rho_i + rho_j) on
+// approaching pairs (v_ij . r_ij < 0), else 0; grad W = grad (1 - q)^3 r_ij.
+template <bool Viscosity>
+struct PairForce {
+  template <class L>
+  static SPHFLUID_INLINE void f(simd::Mask<L> in, const PairConstants<L>& c, L rho_sum,
+                                L por2_sum, L ir_i, L ir_j, L dx, L dy, L r2, L vijx, L vijy,
+                                L& fx, L& fy) {
+    const L zero = simd::zero<L>();
+    const L q = simd::sqrt(r2) * c.inv_h;
+    const L a = simd::max(simd::splat<L>(1) - q, zero);
+    const L s = c.grad * a * a * a;
+    const L gwx = s * dx, gwy = s * dy;
+    const L vr = simd::fmadd(vijx, dx, vijy * dy);
+    // one division for both viscosities
+    const L inv_r2e = simd::maskz_div(in, simd::splat<L>(1), r2 + c.eps2);
+    L coef = por2_sum;  // p_i/rho_i^2 + p_j/rho_j^2
+    const simd::Mask<L> closing = simd::lt(in, vr, zero);
+    if (simd::any(closing)) {  // + Pi_ij
+      const L t = c.av * vr * inv_r2e * simd::splat<L>(2);
+      coef = simd::mask_sub(coef, closing, coef, simd::maskz_div(closing, t, rho_sum));
+    }
+    const L mc = c.m * coef;
+    fx = simd::maskz_fnmadd(in, mc, gwx, zero);
+    fy = simd::maskz_fnmadd(in, mc, gwy, zero);
+    if constexpr (Viscosity) {  // Morris, Fox & Zhu (1997)
+      const L rgw = simd::fmadd(dx, gwx, dy * gwy);
+      const L k = c.m_eta2 * ir_i * ir_j * rgw * inv_r2e;
+      fx = simd::mask3_fmadd(k, vijx, fx, in);
+      fy = simd::mask3_fmadd(k, vijy, fy, in);
+    }
+  }
+};
+
+// f(r1, d1, r2, d2) for each pair of perpendicular wall ghosts in a row (r_k
+// from the ghost to the particle, d_k = |r_k|): the particle is in a corner,
+// and the two walls' shares both cover the quadrant beyond it.
+template <class F>
+void for_each_corner(Row<Vec2> ghosts, F f) {
+  for (const Vec2* a = ghosts.begin(); a != ghosts.end(); ++a)
+    for (const Vec2* b = a + 1; b != ghosts.end(); ++b) {
+      const Real da = a->norm(), db = b->norm();
+      if (da > 0 && db > 0 && std::abs(a->dot(*b)) < Real(1e-6) * da * db) f(*a, da, *b, db);
+    }
+}
+
+// W7: the walls' share of a particle's density, added to rho: each ghost
+// stands for the wall's half-plane filled with fluid at rho0; a corner's
+// quadrant once, not twice.
+inline void add_wall_density(const WallTables& t, Real rho0, Row<Vec2> ghosts, Real& rho) {
+  for (const Vec2& r : ghosts) rho += rho0 * t.wall_half(r.norm());
+  for_each_corner(ghosts, [&](const Vec2&, Real d1, const Vec2&, Real d2) {
+    rho -= rho0 * t.corner_half(d1, d2);
+  });
+}
+
+// W8-W9: the walls' acceleration on a particle with p / rho^2 = pi2, 1/rho =
+// inv_i and velocity vi, added to f. A ghost stands for the wall's half-plane
+// of fluid at rest with the particle's pressure (its positive part: walls
+// push, never pull); the pressure pair summed over it is 2 p_i rho0 / rho_i^2
+// times the kernel's integral along the wall line, pointing away from the
+// wall; the artificial and physical viscosities act as from one particle at
+// rest at the ghost. In a corner both walls' pushes include the quadrant
+// beyond it: once only.
+template <bool Viscosity>
+void add_wall_force(const WallTables& t, const Wendland& W, const PairConstants<Real>& c,
+                    Real rho0, Row<Vec2> ghosts, Real pi2, Real inv_i, const Vec2& vi, Vec2& f) {
+  const Real pw2 = std::max(pi2, Real(0));
+  for (const Vec2& r : ghosts) {
+    const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
+    const Vec2 gw = W.gradient(r, rl);
+    if (rl > 0) f += (2 * pw2 * rho0 * t.wall_line(rl) / rl) * r;
+    const Real vr = vi.dot(r);
+    if (vr < 0) f += (c.m * c.av * vr / (r2 + c.eps2) * inv_i) * gw;
+    if constexpr (Viscosity) f += (c.m_eta2 * inv_i * inv_i * r.dot(gw) / (r2 + c.eps2)) * vi;
+  }
+  for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    f -= (2 * pw2 * rho0) * (t.corner_line(d1, d2) / d1 * r1 + t.corner_line(d2, d1) / d2 * r2);
+  });
+}
+
+}  // namespace sphfluid::wcsph
