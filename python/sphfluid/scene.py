@@ -377,9 +377,10 @@ class _Validator:
     # -- the sections, in the order their problems are reported
     def header(self, d: dict) -> tuple[str, Point | None]:
         """The format, the name and the gravity: (name, gravity)."""
-        fmt = self.required(d, "format", "")
-        if fmt is not None and fmt != FORMAT:
-            self.fail("format", f'expected "{FORMAT}", got {json.dumps(fmt)}')
+        if "format" not in d:
+            self.missing("format")
+        elif d["format"] != FORMAT:
+            self.fail("format", f'expected "{FORMAT}", got {json.dumps(d["format"])}')
         name = d.get("name", "")
         if not isinstance(name, str):
             self.fail("name", f"expected a string, got {_kind(name)}")
@@ -476,9 +477,10 @@ class _Validator:
         return _Resolution(dx, h, mass)
 
     def regions(self, d: dict) -> list[Region]:
-        raw = self.required(d, "fluid_regions", "")
-        if raw is None:
+        if "fluid_regions" not in d:
+            self.missing("fluid_regions")
             return []
+        raw = d["fluid_regions"]
         if not isinstance(raw, list):
             self.fail("fluid_regions", f"expected a list, got {_kind(raw)}")
             return []
@@ -490,7 +492,7 @@ class _Validator:
         if (item := self.obj(item, path)) is None:
             return None
         shape = item.get("shape")
-        if shape not in _SHAPE_KEYS:
+        if not isinstance(shape, str) or shape not in _SHAPE_KEYS:
             self.fail(f"{path}.shape", f"expected one of rectangle, circle, polygon, got "
                       f"{json.dumps(shape)}{_did_you_mean(str(shape), _SHAPE_KEYS)}")
             return None
@@ -686,16 +688,12 @@ class _Validator:
                     f" (expected one of: {', '.join(allowed)})")
                 self.fail(f"{prefix}{key}", f"unknown key{hint}")
 
-    def required(self, obj: dict, key: str, prefix: str) -> Any:
-        if key not in obj:
-            self.missing(f"{prefix}{key}")
-            return None
-        return obj[key]
-
     def section(self, d: dict, key: str, allowed: Sequence[str]) -> dict | None:
-        """The required object d[key] with its keys checked (None when missing or null)."""
-        raw = self.required(d, key, "")
-        if raw is None or (obj := self.obj(raw, key)) is None:
+        """The required object d[key], its keys checked; None after a problem."""
+        if key not in d:
+            self.missing(key)
+            return None
+        if (obj := self.obj(d[key], key)) is None:
             return None
         self.keys(obj, allowed, f"{key}.")
         return obj
