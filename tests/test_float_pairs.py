@@ -187,7 +187,7 @@ def test_float_force_error_scales_with_the_pressure(k):
         s.compute_forces()
         o = np.argsort(s.ids)
         out.append((s.accelerations[o], s.pressures[o], s.densities[o]))
-    (ad, pd, rd), (af, pf, rf) = out
+    (ad, pd, rd), (af, _, _) = out
     scale = np.abs(pd / rd).max() / h
     err = np.abs(af - ad).max()
     assert 1e-7 * scale < err < 1e-6 * scale

@@ -74,7 +74,7 @@ def test_steps_do_not_allocate(tmp_path):
     env = dict(os.environ, LD_PRELOAD=str(lib))
     droplet = Path(__file__).resolve().parent.parent / "scenes" / "droplet.json"  # tension
     out = subprocess.run([sys.executable, "-c", DRIVER, str(droplet)], env=env,
-                         capture_output=True, text=True, timeout=300)
+                         capture_output=True, text=True, timeout=300, check=False)
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
     assert len(rows) == 18, out.stdout

@@ -64,7 +64,7 @@ def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
     s = solver(x, v, walls, eta=0.4, sigma=sigma, threads=threads,
                domain=((-1.0, -1.0), (3.0, 3.0)))
     ghosts = [_core.walls.ghosts(walls, xi, 0.1) for xi in x]
-    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4, sigma=sigma,
+    rho, _, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4, sigma=sigma,
                             ghosts=ghosts)
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
@@ -85,7 +85,7 @@ def test_native_equals_brute_force_with_crowded_cells(threads):
     v = rng.normal(0.0, 1.0, x.shape)
     s = solver(x, v, np.zeros((0, 2, 2)), eta=0.4, threads=threads,
                domain=((-1.0, -1.0), (3.0, 3.0)))
-    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
+    rho, _, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
@@ -102,7 +102,7 @@ def test_native_equals_brute_force_in_one_column_or_one_row_of_cells(shape):
     x[:, 0 if shape == "column" else 1] *= 0.09  # narrower than h = 0.1
     v = rng.normal(0.0, 1.0, x.shape)
     s = solver(x, v, np.zeros((0, 2, 2)), eta=0.4)
-    rho, p, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
+    rho, _, a = seed_forces(x, v, h=0.1, m=0.5, rho0=100.0, k=30.0, eta=0.4)
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.densities[o], rho, rtol=1e-12)
     np.testing.assert_allclose(s.accelerations[o], a, rtol=1e-10, atol=1e-10 * np.abs(a).max())

@@ -72,6 +72,14 @@ CASES = [
     (setp(["duration"], float("inf")), r"duration: must be finite"),
     (setp(["resolution", "spacing"], 1e-6), r"domain: spans .* cells|fluid_regions: would create about"),
     (setp(["fluid_regions"], {}), r"fluid_regions: expected a list, got an object"),
+    # null where a section is required: refused like any other wrong type
+    (setp(["format"], None), r'format: expected "sphfluid-scene/1", got null'),
+    (setp(["domain"], None), r"domain: expected an object, got null"),
+    (setp(["fluid"], None), r"fluid: expected an object, got null"),
+    (setp(["resolution"], None), r"resolution: expected an object, got null"),
+    (setp(["fluid_regions"], None), r"fluid_regions: expected a list, got null"),
+    (setp(["fluid_regions", 0, "shape"], ["circle"]), r'fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got \["circle"\]'),
+    (setp(["fluid_regions", 0, "shape"], {}), r"fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got \{\}"),
 ]
 
 

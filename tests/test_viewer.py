@@ -38,7 +38,7 @@ def test_fluid_pixels_where_the_fluid_is_and_none_elsewhere(display, mode):
     bg = np.all(img == BACKGROUND, axis=2)
     cam = r.camera
     # The column (0..1 m x 0..2 m) shows fluid colours at its centre...
-    cx, cy = (int(round(v)) for v in cam.to_screen(np.array([0.5, 1.0])))
+    cx, cy = (round(float(v)) for v in cam.to_screen(np.array([0.5, 1.0])))
     assert not bg[cx - 3:cx + 4, cy - 3:cy + 4].any()
     # ...and the empty half of the tank (2.5..3.5 m x 0.5..2 m) is background.
     x0, y1 = (int(v) for v in cam.to_screen(np.array([2.5, 0.5])))
@@ -51,8 +51,8 @@ def test_scalar_modes_colour_by_their_field(display):
     sim.run(0.5)
     img, r = render(sim, "pressure")
     cam = r.camera
-    top = img[tuple(int(round(v)) for v in cam.to_screen(np.array([0.5, 0.9])))]
-    bottom = img[tuple(int(round(v)) for v in cam.to_screen(np.array([0.5, 0.05])))]
+    top = img[tuple(round(float(v)) for v in cam.to_screen(np.array([0.5, 0.9])))]
+    bottom = img[tuple(round(float(v)) for v in cam.to_screen(np.array([0.5, 0.05])))]
     # High pressure at the bottom is drawn redder than the low pressure near the top.
     assert int(bottom[0]) - int(bottom[2]) > int(top[0]) - int(top[2])
 
@@ -124,7 +124,7 @@ def screen_of(scene, size, point):
     from sphfluid.viewer import Camera
 
     x, y = Camera(scene, size).to_screen(np.asarray(point, float))
-    return int(round(float(x))), int(round(float(y)))
+    return round(float(x)), round(float(y))
 
 
 def falling_block(tmp_path):
@@ -147,7 +147,7 @@ def test_a_wall_drawn_with_the_mouse_is_respected(tmp_path):
                   lambda pg: pg.event.Event(pg.MOUSEBUTTONUP, button=1, pos=b)]}
     sim = scripted_view(scene, events, frames=4, size=size)
     assert len(sim.scene.walls) == len(scene.walls) + 1
-    (x1, y1), (x2, y2) = sim.scene.walls[-1]
+    (_, y1), (_, y2) = sim.scene.walls[-1]
     # Both ends snapped onto the box's side walls (x = 0 and x = 1 are wall lines;
     # the nearest end points are the box corners only if within the snap radius).
     assert y1 == pytest.approx(0.3, abs=0.02) and y2 == pytest.approx(0.3, abs=0.02)

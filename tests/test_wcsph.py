@@ -6,13 +6,12 @@ import json
 
 import numpy as np
 import pytest
+import sphfluid
 from conftest import ROOT, SCENES
 from reference import wcsph_forces
-from test_kernels import radial_integral
-
-import sphfluid
 from sphfluid import _core
 from sphfluid.simulation import expected_top_speed, speed_of_sound
+from test_kernels import radial_integral
 
 H = 0.3
 
@@ -28,7 +27,7 @@ def test_wendland_gradient_and_laplacian_match_finite_differences():
     rng = np.random.default_rng(4)
     pts = rng.uniform(-H, H, (200, 2))
     pts = pts[(np.hypot(*pts.T) < 0.95 * H) & (np.hypot(*pts.T) > 0.05 * H)]
-    w = lambda p: k.wendland_w(np.hypot(*p.T), H)  # noqa: E731
+    w = lambda p: k.wendland_w(np.hypot(*p.T), H)
     eps = 1e-6 * H
     num = np.stack([(w(pts + e) - w(pts - e)) / (2 * eps)
                     for e in (np.array([eps, 0.0]), np.array([0.0, eps]))], axis=1)

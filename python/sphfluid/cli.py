@@ -46,7 +46,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
                            metavar="{run,view,record,bench,stress,validate}")
+    _add_run(sub)
+    _add_view(sub)
+    _add_record(sub)
+    _add_bench(sub)
+    _add_stress(sub)
+    _add_validate(sub)
+    return p
 
+
+def _add_run(sub) -> None:
     r = sub.add_parser("run", help="simulate a scene headless",
                        description="Simulate a scene without a window and print a summary.")
     r.add_argument("scene", help="scene JSON file")
@@ -57,6 +66,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
 
+
+def _add_view(sub) -> None:
     v = sub.add_parser("view", help="watch a scene in a window",
                        description="Run a scene in a pygame window. Keys: space pause, "
                                    "S or right arrow one step, R reset, Esc or Q quit.")
@@ -70,6 +81,8 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
                    default="speed", help="colour mode (keys 1-4 switch it live)")
 
+
+def _add_record(sub) -> None:
     rec = sub.add_parser("record", help="render a scene to PNG frames or a GIF",
                          description="Render frames headless (no display needed).")
     rec.add_argument("scene", help="scene JSON file")
@@ -82,6 +95,8 @@ def _parser() -> argparse.ArgumentParser:
     rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
     rec.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
 
+
+def _add_bench(sub) -> None:
     b = sub.add_parser("bench", help="time the dam break at ~10k particles",
                        description="Dam break, fixed dt, 1 and 2 threads; prints steps/s and "
                                    "particle-steps/s and can write BENCHMARKS.md.")
@@ -118,6 +133,9 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--peers", action="store_true",
                    help="--suite: also run PySPH and SPlisHSPlasH on the same dam break "
                         "when installed (docs/peers.md)")
+
+
+def _add_stress(sub) -> None:
     s = sub.add_parser("stress", help="stability matrix and violent scenes",
                        description="Sweep k x dt for the seed method on the dam break and the "
                                    "splash (fixed and adaptive dt), then violent scenes (and, with "
@@ -136,6 +154,8 @@ def _parser() -> argparse.ArgumentParser:
                         "each method (default: ./scenes; skipped when absent, and then "
                         "--write is refused)")
 
+
+def _add_validate(sub) -> None:
     from .validation.cases import CASES, VARIANTS
 
     v = sub.add_parser("validate", help="accuracy against known answers, with run times",
@@ -159,7 +179,6 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--out", type=Path, default=Path("docs/validation"),
                    help="folder for the plots (default docs/validation)")
     v.add_argument("--write", type=Path, help="write the tables into this Markdown file")
-    return p
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -208,11 +227,26 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
+    """`sphfluid run`: set up, run to the end writing frames, print the summary."""
     from .scene import load_scene
-    from .simulation import InstabilityError, Simulation, _ProgressBar
+    from .simulation import Simulation
 
     scene = load_scene(args.scene)
     duration = args.duration if args.duration is not None else scene.duration
+    refused = _prepare_run(args, scene, duration)
+    if refused is not None:
+        return refused
+    sim = Simulation(scene, threads=args.threads)
+    print(_run_header(args, sim, duration), file=sys.stderr)
+    run = _Run(args, sim, duration)
+    run.to_end()
+    _print_summary(run)
+    return 0
+
+
+def _prepare_run(args, scene, duration: float | None) -> int | None:
+    """Refuse a run without a duration or with --every but no --out, and make --out
+    with the scene as run in it: an exit code after saying why not, or None."""
     if duration is None:
         print(f"error: {args.scene}: the scene has no 'duration'; pass --duration T",
               file=sys.stderr)
@@ -227,77 +261,116 @@ def _run(args) -> int:
         except OSError as e:
             print(f"error: cannot write to {args.out}: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
-    sim = Simulation(scene, threads=args.threads)
-    every = args.every if args.every is not None else 1.0 / 30.0
+    return None
+
+
+def _run_header(args, sim, duration: float) -> str:
+    """What will run: particles, walls, method, steps, threads."""
+    scene = sim.scene
     step_text = ("adaptive dt (cfl " + f"{scene.cfl:g})" if sim.adaptive
                  else f"dt {scene.time_step:g} s, "
-                      f"{int(math.ceil(duration / scene.time_step - 1e-9)):,} steps")
+                      f"{math.ceil(duration / scene.time_step - 1e-9):,} steps")
     precision = ""
     if scene.pair_precision != "double":  # say which ran: float needs the cell clusters
         precision = (" (pair forces in float)" if sim.stats()["pair_precision"] == "float" else
                      " (pair forces in double: float runs without surface tension and periodic "
                      "axes, in AVX-512 builds)")
-    print(f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
-          f"{len(scene.walls)} walls, method {scene.method}{precision}, {step_text} to "
-          f"t = {duration:g} s, "
-          f"{sim.threads} thread(s)"
-          + (f" ({sim.threads_in_use} in use below 1,000 particles)"
-             if sim.threads_in_use != sim.threads else ""), file=sys.stderr)
-    # Stop at 100 sample times (progress, density error) and at every frame time.
-    samples = {round(duration * k / 100, 12) for k in range(1, 101)}
-    frame_times = set()
-    if args.out:
-        frame_times = {round(every * k, 12) for k in range(1, int(duration / every + 1e-9) + 1)}
-    bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
-    frames = 0
-    st = sim.stats()
-    max_err, max_comp = st["max_density_error"], st["max_compression"]
-    particle_steps = 0
-    start = time.perf_counter()
+    return (f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
+            f"{len(scene.walls)} walls, method {scene.method}{precision}, {step_text} to "
+            f"t = {duration:g} s, "
+            f"{sim.threads} thread(s)"
+            + (f" ({sim.threads_in_use} in use below 1,000 particles)"
+               if sim.threads_in_use != sim.threads else ""))
 
-    def write_frame() -> None:
-        nonlocal frames
-        np.savez(args.out / f"frame_{frames:05d}.npz", time=sim.time, positions=sim.positions,
-                 velocities=sim.velocities, densities=sim.densities, pressures=sim.pressures,
-                 ids=sim.ids)
-        frames += 1
 
-    if args.out:
-        write_frame()
-    retries_seen = 0
-    for target in sorted(samples | frame_times):
+class _Run:
+    """The run loop of `sphfluid run`: it stops at 100 sample times (progress, the
+    density error) and at every frame time, writes the frames, warns of retried
+    steps and, on a blow-up, saves the last good state."""
+
+    def __init__(self, args, sim, duration: float):
+        from .simulation import _ProgressBar
+
+        self.sim = sim
+        self.out: Path | None = args.out
+        self.scene_path = args.scene
+        every = args.every if args.every is not None else 1.0 / 30.0
+        self.samples = {round(duration * k / 100, 12) for k in range(1, 101)}
+        self.frame_times = set()
+        if self.out:
+            self.frame_times = {round(every * k, 12)
+                                for k in range(1, int(duration / every + 1e-9) + 1)}
+        self.bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
+        self.frames = 0
+        st = sim.stats()
+        self.max_err, self.max_comp = st["max_density_error"], st["max_compression"]
+        self.particle_steps = 0
+        self.retries_seen = 0
+        self.wall = 0.0  # s
+
+    def to_end(self) -> None:
+        start = time.perf_counter()
+        if self.out:
+            self.write_frame()
+        for target in sorted(self.samples | self.frame_times):
+            self.advance_to(target)
+            if target in self.frame_times:
+                self.write_frame()
+            if self.bar:
+                self.bar.update(self.sim.time, self.sim)
+        if self.bar:
+            self.bar.close()
+        self.wall = time.perf_counter() - start
+
+    def advance_to(self, target: float) -> None:
+        from .simulation import InstabilityError
+
+        sim = self.sim
         n_before = sim.n_particles
         try:
             steps = sim.advance_to(target)
         except InstabilityError:
-            if bar:
-                bar.close()
-            saved = (args.out / "last_good_state.npz" if args.out
-                     else Path(f"{Path(args.scene).stem}.last_good_state.npz"))
-            try:
-                sim.save_state(saved)
-                print(f"the last good state (t = {sim.time:.6g} s, step {sim.step_count}) is "
-                      f"saved in {saved}", file=sys.stderr)
-            except OSError as e:
-                print(f"could not save the last good state: {e}", file=sys.stderr)
+            if self.bar:
+                self.bar.close()
+            self.save_last_good_state()
             raise
-        if sim.retried_steps > retries_seen:
-            new = sim.retried_steps - retries_seen
+        self.warn_of_retries()
+        self.particle_steps += steps * n_before
+        st = sim.stats()
+        self.max_err = max(self.max_err, st["max_density_error"])
+        self.max_comp = max(self.max_comp, st["max_compression"])
+
+    def write_frame(self) -> None:
+        sim = self.sim
+        np.savez(self.out / f"frame_{self.frames:05d}.npz", time=sim.time,
+                 positions=sim.positions, velocities=sim.velocities, densities=sim.densities,
+                 pressures=sim.pressures, ids=sim.ids)
+        self.frames += 1
+
+    def warn_of_retries(self) -> None:
+        """The retries since the last call (the log keeps the latest)."""
+        sim = self.sim
+        if sim.retried_steps > self.retries_seen:
+            new = sim.retried_steps - self.retries_seen
             for line in sim.retry_log[-min(new, 100):]:
                 print(f"warning: {line}", file=sys.stderr)
-            retries_seen = sim.retried_steps
-        particle_steps += steps * n_before
-        st = sim.stats()
-        max_err = max(max_err, st["max_density_error"])
-        max_comp = max(max_comp, st["max_compression"])
-        if target in frame_times:
-            write_frame()
-        if bar:
-            bar.update(sim.time, sim)
-    if bar:
-        bar.close()
+            self.retries_seen = sim.retried_steps
+
+    def save_last_good_state(self) -> None:
+        sim = self.sim
+        saved = (self.out / "last_good_state.npz" if self.out
+                 else Path(f"{Path(self.scene_path).stem}.last_good_state.npz"))
+        try:
+            sim.save_state(saved)
+            print(f"the last good state (t = {sim.time:.6g} s, step {sim.step_count}) is "
+                  f"saved in {saved}", file=sys.stderr)
+        except OSError as e:
+            print(f"could not save the last good state: {e}", file=sys.stderr)
+
+
+def _print_summary(run: _Run) -> None:
+    sim, wall = run.sim, run.wall
     done = sim.step_count
-    wall = time.perf_counter() - start
     st = sim.stats()
     print(f"steps               {done:,}")
     print(f"simulated time      {sim.time:.4f} s")
@@ -306,19 +379,18 @@ def _run(args) -> int:
         print(f"mean dt             {sim.time / max(done, 1):.3g} s (last {sim.dt:.3g} s, "
               f"limited by {sim.dt_limit})")
     print(f"steps/s             {done / max(wall, 1e-9):,.0f}")
-    print(f"particle-steps/s    {particle_steps / max(wall, 1e-9):,.0f}")
+    print(f"particle-steps/s    {run.particle_steps / max(wall, 1e-9):,.0f}")
     print(f"particles           {sim.n_particles:,}")
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
-    print(f"max compression     {max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
+    print(f"max compression     {run.max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
           "0 if none is above rho0)")
-    print(f"max density error   {max_err:.4f} (largest |rho/rho0 - 1| of the same states; at a "
-          "free surface the summed density falls short)")
+    print(f"max density error   {run.max_err:.4f} (largest |rho/rho0 - 1| of the same states; at "
+          "a free surface the summed density falls short)")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
     if sim.retried_steps:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
-    if args.out:
-        print(f"frames              {frames} in {args.out}{os.sep}")
-    return 0
+    if run.out:
+        print(f"frames              {run.frames} in {run.out}{os.sep}")
 
 
 def _size(text: str) -> tuple[int, int] | None:

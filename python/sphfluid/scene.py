@@ -11,10 +11,10 @@ import difflib
 import json
 import math
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -276,8 +276,51 @@ def _kind(value: Any) -> str:
     return type(value).__name__
 
 
+class _Domain(NamedTuple):
+    lo: Point | None  # lower corner, m; None after a problem
+    hi: Point | None  # upper corner, m
+    periodic: tuple[bool, bool]
+
+
+class _Solver(NamedTuple):
+    method: Any  # as given: one of METHODS unless a problem was reported
+    dt: float | None  # s; None when adaptive or after a problem
+    adaptive: bool
+    cfl: float | None
+    restitution: float | None
+    on_instability: Any
+    pair_precision: Any
+    threshold: float | None  # 1/m
+
+
+class _Fluid(NamedTuple):
+    rho0: float | None  # kg/m^3
+    k: float | None  # m^2/s^2
+    eta: float | None  # Pa s
+    sigma: float | None  # N
+    c0: float | None  # m/s
+    p_b: float | None  # Pa
+    alpha: float | None
+
+
+class _Resolution(NamedTuple):
+    dx: float | None  # m
+    h: float | None  # m
+    mass: float | None  # kg per m of depth
+
+
+def _did_you_mean(word: str, options: Iterable[str]) -> str:
+    near = difflib.get_close_matches(word, list(options), n=1)
+    return f' (did you mean "{near[0]}"?)' if near else ""
+
+
 class _Validator:
-    """Walks the raw JSON, collecting one message per problem."""
+    """Walks the raw JSON, collecting one message per problem.
+
+    One method per section of the scene, called in the order the problems are
+    reported, then the checks that need several sections. The primitives
+    return None (or the section's defaults) after reporting a problem.
+    """
 
     def __init__(self, data: dict, source: str | None):
         self.data = data
@@ -287,318 +330,202 @@ class _Validator:
     def fail(self, path: str, message: str) -> None:
         self.problems.append(f"{path}: {message}")
 
-    # -- primitive checks; each returns None after reporting a problem
-    def keys(self, obj: dict, allowed: Sequence[str], prefix: str) -> None:
-        for key in obj:
-            if key not in allowed:
-                near = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
-                hint = f' (did you mean "{near[0]}"?)' if near else (
-                    f" (expected one of: {', '.join(allowed)})")
-                self.fail(f"{prefix}{key}", f"unknown key{hint}")
+    def missing(self, path: str, why: str = "") -> None:
+        self.fail(path, "required key is missing" + (f" ({why})" if why else ""))
 
-    def obj(self, value: Any, path: str) -> dict | None:
-        if not isinstance(value, dict):
-            self.fail(path, f"expected an object, got {_kind(value)}")
-            return None
-        return value
-
-    def number(self, value: Any, path: str, *, low: float | None = None,
-               strict: bool = True, high: float | None = None) -> float | None:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(path, f"expected a number, got {_kind(value)}")
-            return None
-        x = float(value)
-        if not math.isfinite(x):
-            self.fail(path, f"must be finite, got {value!r}")
-            return None
-        if low is not None and (x <= low if strict else x < low):
-            self.fail(path, f"must be {'>' if strict else '>='} {low:g}, got {value!r}")
-            return None
-        if high is not None and x > high:
-            self.fail(path, f"must be <= {high:g}, got {value!r}")
-            return None
-        return x
-
-    def point(self, value: Any, path: str) -> Point | None:
-        if (not isinstance(value, list) or len(value) != 2
-                or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value)):
-            shown = json.dumps(value) if _jsonable(value) else repr(value)
-            self.fail(path, f"expected [x, y], got {shown}")
-            return None
-        if not all(math.isfinite(c) for c in value):
-            self.fail(path, f"must be finite, got {value!r}")
-            return None
-        return (float(value[0]), float(value[1]))
-
-    def flags(self, value: Any, path: str) -> tuple[bool, bool]:
-        if not (isinstance(value, list) and len(value) == 2
-                and all(isinstance(c, bool) for c in value)):
-            shown = json.dumps(value) if _jsonable(value) else repr(value)
-            self.fail(path, f"expected [x, y] of true/false, got {shown}")
-            return (False, False)
-        return (value[0], value[1])
-
-    def required(self, obj: dict, key: str, prefix: str, why: str = "") -> Any:
-        if key not in obj:
-            self.fail(f"{prefix}{key}", "required key is missing" + (f" ({why})" if why else ""))
-            return None
-        return obj[key]
-
-    def req_point(self, obj: dict, key: str, prefix: str) -> Point | None:
-        if key not in obj:
-            self.fail(f"{prefix}{key}", "required key is missing")
-            return None
-        return self.point(obj[key], f"{prefix}{key}")
+    def raise_problems(self) -> None:
+        if self.problems:
+            raise SceneError(self.problems, self.source)
 
     # -- the scene
     def scene(self) -> Scene:
         d = self.data
         self.keys(d, _TOP_KEYS, "")
-        fmt = self.required(d, "format", "")
-        if fmt is not None and fmt != FORMAT:
-            self.fail("format", f'expected "{FORMAT}", got {json.dumps(fmt)}')
+        name, gravity = self.header(d)
+        domain = self.domain(d)
+        solver = self.solver(d)
+        fluid = self.fluid(d, solver.method)
+        res = self.resolution(d)
+        regions = self.regions(d)
+        walls = self.walls(d.get("walls", []))
+        duration = self.number_at(d, "duration", "", low=0)
+
+        self.check_cell_grid(domain, res)
+        self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
+        self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
+        self.check_regions_inside(domain, regions)
+        if res.dx and regions and not self.problems:
+            self.check_particle_budget(regions, res.dx)
+        self.raise_problems()
+
+        assert solver.adaptive or solver.dt is not None
+        scene = Scene(domain_min=domain.lo, domain_max=domain.hi, rest_density=fluid.rho0,
+                      gas_constant=fluid.k, spacing=res.dx, smoothing_length=res.h,
+                      time_step=solver.dt, name=name, gravity=gravity, viscosity=fluid.eta,
+                      surface_tension=fluid.sigma, particle_mass=res.mass,
+                      regions=tuple(regions), walls=tuple(walls), method=solver.method,
+                      duration=duration, wall_restitution=solver.restitution,
+                      surface_threshold=solver.threshold, cfl=solver.cfl,
+                      on_instability=solver.on_instability, speed_of_sound=fluid.c0,
+                      artificial_viscosity=fluid.alpha, periodic=domain.periodic,
+                      background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
+                      source=self.source)
+        self.check_regions_hold_points(scene.regions, res.dx)
+        self.raise_problems()
+        return scene
+
+    # -- the sections, in the order their problems are reported
+    def header(self, d: dict) -> tuple[str, Point | None]:
+        """The format, the name and the gravity: (name, gravity)."""
+        if "format" not in d:
+            self.missing("format")
+        elif d["format"] != FORMAT:
+            self.fail("format", f'expected "{FORMAT}", got {json.dumps(d["format"])}')
         name = d.get("name", "")
         if not isinstance(name, str):
             self.fail("name", f"expected a string, got {_kind(name)}")
             name = ""
         gravity = self.point(d["gravity"], "gravity") if "gravity" in d else DEFAULT_GRAVITY
+        return name, gravity
 
+    def domain(self, d: dict) -> _Domain:
         lo = hi = None
         periodic = (False, False)
-        dom = self.required(d, "domain", "")
-        if dom is not None and (dom := self.obj(dom, "domain")) is not None:
-            self.keys(dom, _DOMAIN_KEYS, "domain.")
-            lo = self.req_point(dom, "min", "domain.")
-            hi = self.req_point(dom, "max", "domain.")
+        dom = self.section(d, "domain", _DOMAIN_KEYS)
+        if dom is not None:
+            lo = self.point_at(dom, "min", "domain.", required=True)
+            hi = self.point_at(dom, "max", "domain.", required=True)
             if lo and hi and not (lo[0] < hi[0] and lo[1] < hi[1]):
                 self.fail("domain", f"min must be below max in x and y, got min {list(lo)}, "
                           f"max {list(hi)}")
                 lo = hi = None
             if "periodic" in dom:
                 periodic = self.flags(dom["periodic"], "domain.periodic")
+        return _Domain(lo, hi, periodic)
 
-        solver = d.get("solver", {})
-        solver = self.obj(solver, "solver") or {}
+    def solver(self, d: dict) -> _Solver:
+        solver = self.obj(d.get("solver", {}), "solver") or {}
         self.keys(solver, _SOLVER_KEYS, "solver.")
         method = solver.get("method", "seed")
         if method not in METHODS:
-            near = difflib.get_close_matches(str(method), METHODS, n=1)
-            hint = f' (did you mean "{near[0]}"?)' if near else ""
-            self.fail("solver.method", f"unknown method {json.dumps(method)}{hint}; "
-                      f"available: {', '.join(METHODS)}")
-        dt = None
-        adaptive = False
-        if "time_step" not in solver:
-            self.fail("solver.time_step", 'required key is missing (a time step in seconds, '
-                      'e.g. 0.0002, or "auto")')
-        elif solver["time_step"] == "auto":
-            adaptive = True
-        elif isinstance(solver["time_step"], str):
-            self.fail("solver.time_step", f'expected a number of seconds or "auto", got '
-                      f'{json.dumps(solver["time_step"])}')
-        else:
-            dt = self.number(solver["time_step"], "solver.time_step", low=0)
-        cfl = DEFAULT_CFL
-        if "cfl" in solver:
-            cfl = self.number(solver["cfl"], "solver.cfl", low=0, high=1)
-            if cfl is not None and not adaptive and "time_step" in solver:
-                self.fail("solver.cfl", 'only applies with "time_step": "auto"')
-        restitution = DEFAULT_RESTITUTION
-        if "wall_restitution" in solver:
-            restitution = self.number(solver["wall_restitution"], "solver.wall_restitution",
-                                      low=0, strict=False, high=1)
-        on_instability = solver.get("on_instability", "stop")
-        if on_instability not in ON_INSTABILITY:
-            self.fail("solver.on_instability", f'expected "stop" or "retry", got '
-                      f"{json.dumps(on_instability)}")
-        pair_precision = solver.get("pair_precision", "double")
-        if pair_precision not in PAIR_PRECISIONS:
-            self.fail("solver.pair_precision", f'expected "double" or "float", got '
-                      f"{json.dumps(pair_precision)}")
-        elif pair_precision == "float" and method == "wcsph":
+            self.fail("solver.method", f"unknown method {json.dumps(method)}"
+                      f"{_did_you_mean(str(method), METHODS)}; available: {', '.join(METHODS)}")
+        dt, adaptive = self.time_step(solver)
+        cfl = self.number_at(solver, "cfl", "solver.", DEFAULT_CFL, low=0, high=1)
+        if "cfl" in solver and cfl is not None and not adaptive and "time_step" in solver:
+            self.fail("solver.cfl", 'only applies with "time_step": "auto"')
+        restitution = self.number_at(solver, "wall_restitution", "solver.", DEFAULT_RESTITUTION,
+                                     low=0, strict=False, high=1)
+        on_instability = self.choice(solver, "on_instability", "solver.", ON_INSTABILITY)
+        pair_precision = self.choice(solver, "pair_precision", "solver.", PAIR_PRECISIONS)
+        if pair_precision == "float" and method == "wcsph":
             self.fail("solver.pair_precision", '"float" applies to the seed method only')
-        threshold = None
-        if "surface_threshold" in solver:
-            threshold = self.number(solver["surface_threshold"], "solver.surface_threshold",
-                                    low=0, strict=False)
+        threshold = self.number_at(solver, "surface_threshold", "solver.", low=0, strict=False)
+        return _Solver(method, dt, adaptive, cfl, restitution, on_instability, pair_precision,
+                       threshold)
 
-        rho0 = k = c0 = None
-        eta, sigma = DEFAULT_VISCOSITY, DEFAULT_SURFACE_TENSION
-        alpha = DEFAULT_ARTIFICIAL_VISCOSITY
-        p_b = 0.0
-        fl = self.required(d, "fluid", "")
-        if fl is not None and (fl := self.obj(fl, "fluid")) is not None:
-            self.keys(fl, _FLUID_KEYS, "fluid.")
-            if "rest_density" in fl:
-                rho0 = self.number(fl["rest_density"], "fluid.rest_density", low=0)
-            else:
-                self.fail("fluid.rest_density", "required key is missing")
-            if "gas_constant" in fl:
-                k = self.number(fl["gas_constant"], "fluid.gas_constant", low=0)
-            elif method == "seed":
-                self.fail("fluid.gas_constant", "required key is missing (the seed method's "
-                          "equation of state p = k (rho - rho0) needs k)")
-            if "viscosity" in fl:
-                eta = self.number(fl["viscosity"], "fluid.viscosity", low=0, strict=False)
-            if "surface_tension" in fl:
-                sigma = self.number(fl["surface_tension"], "fluid.surface_tension", low=0,
-                                    strict=False)
-            if "speed_of_sound" in fl:
-                c0 = self.number(fl["speed_of_sound"], "fluid.speed_of_sound", low=0)
-            if "background_pressure" in fl:
-                p_b = self.number(fl["background_pressure"], "fluid.background_pressure",
-                                  low=0, strict=False)
-            if "artificial_viscosity" in fl:
-                alpha = self.number(fl["artificial_viscosity"], "fluid.artificial_viscosity",
-                                    low=0, strict=False)
+    def time_step(self, solver: dict) -> tuple[float | None, bool]:
+        """solver.time_step, seconds or "auto": (dt, adaptive)."""
+        if "time_step" not in solver:
+            self.missing("solver.time_step", 'a time step in seconds, e.g. 0.0002, or "auto"')
+            return None, False
+        raw = solver["time_step"]
+        if raw == "auto":
+            return None, True
+        if isinstance(raw, str):
+            self.fail("solver.time_step", f'expected a number of seconds or "auto", got '
+                      f"{json.dumps(raw)}")
+            return None, False
+        return self.number(raw, "solver.time_step", low=0), False
 
-        dx = h = mass = None
-        res = self.required(d, "resolution", "")
-        if res is not None and (res := self.obj(res, "resolution")) is not None:
-            self.keys(res, _RESOLUTION_KEYS, "resolution.")
-            if "spacing" in res:
-                dx = self.number(res["spacing"], "resolution.spacing", low=0)
-            else:
-                self.fail("resolution.spacing", "required key is missing")
-            if "smoothing_length" in res:
-                h = self.number(res["smoothing_length"], "resolution.smoothing_length", low=0)
-                if h is not None and dx is not None and h <= dx:
-                    self.fail("resolution.smoothing_length",
-                              f"must be > spacing ({dx:g}), got {h:g}: particles on the "
-                              "lattice would not see their neighbours")
-                    h = None
-            elif dx is not None:
-                h = DEFAULT_SMOOTHING_FACTOR * dx
-            if "particle_mass" in res:
-                mass = self.number(res["particle_mass"], "resolution.particle_mass", low=0)
+    def fluid(self, d: dict, method: Any) -> _Fluid:
+        fl = self.section(d, "fluid", _FLUID_KEYS)
+        if fl is None:
+            return _Fluid(None, None, DEFAULT_VISCOSITY, DEFAULT_SURFACE_TENSION, None, 0.0,
+                          DEFAULT_ARTIFICIAL_VISCOSITY)
+        p = "fluid."
+        return _Fluid(  # arguments run in order: the problems keep the keys' order
+            rho0=self.number_at(fl, "rest_density", p, required=True, low=0),
+            k=self.number_at(fl, "gas_constant", p, required=method == "seed", low=0,
+                             why="the seed method's equation of state p = k (rho - rho0) "
+                                 "needs k"),
+            eta=self.number_at(fl, "viscosity", p, DEFAULT_VISCOSITY, low=0, strict=False),
+            sigma=self.number_at(fl, "surface_tension", p, DEFAULT_SURFACE_TENSION, low=0,
+                                 strict=False),
+            c0=self.number_at(fl, "speed_of_sound", p, low=0),
+            p_b=self.number_at(fl, "background_pressure", p, 0.0, low=0, strict=False),
+            alpha=self.number_at(fl, "artificial_viscosity", p, DEFAULT_ARTIFICIAL_VISCOSITY,
+                                 low=0, strict=False),
+        )
 
-        regions = self.regions(d)
-        walls = self.walls(d.get("walls", []))
-        duration = None
-        if "duration" in d:
-            duration = self.number(d["duration"], "duration", low=0)
-
-        if lo and hi and h:
-            cells = ((hi[0] - lo[0]) / h) * ((hi[1] - lo[1]) / h)
-            if cells > MAX_DOMAIN_CELLS:
-                self.fail("domain", f"spans {cells:.3g} cells of the smoothing length "
-                          f"{h:g} m, more than the {MAX_DOMAIN_CELLS:.0e} the cell grid allows; "
-                          "shrink the domain to where the fluid can go")
-        if lo and hi and h:
-            for axis, axis_name, extent in ((0, "x", "wide"), (1, "y", "high")):
-                if periodic[axis] and hi[axis] - lo[axis] < 2 * h:
-                    self.fail("domain.periodic", f"a periodic {axis_name} axis needs a domain at "
-                              f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
-                              f"{hi[axis] - lo[axis]:g} m")
-                elif (periodic[axis] and method == "wcsph" and sigma and dx
-                      and hi[axis] - lo[axis] < 4 * h + dx / 2):
-                    # cpp/surface_energy.hpp: the colour field's support is 2 h
-                    self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
-                              f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
-                              f"({4 * h + dx / 2:g} m) {extent}, got {hi[axis] - lo[axis]:g} m")
-        if method == "wcsph" and sigma and dx and h:
-            # cpp/surface_energy.hpp: the surface energy is summed on nodes dx/2
-            # apart over the fluid's bounding box, with a colour kernel of support 2 h.
-            if h < MIN_TENSION_SMOOTHING * dx:
-                self.fail("resolution.smoothing_length", f"with surface tension, wcsph needs "
-                          f"h of at least {MIN_TENSION_SMOOTHING:g} spacings ({h / dx:.3g} "
-                          "given): below that the fluid's own lattice ripple outweighs the "
-                          "surface (README, \"The wcsph method\"); 2 spacings is the default")
-            elif lo and hi:
-                nodes = ((hi[0] - lo[0] + 4 * h) / (dx / 2) + 1) * (
-                    (hi[1] - lo[1] + 4 * h) / (dx / 2) + 1)
-                if nodes > MAX_TENSION_NODES:
-                    self.fail("domain", f"with surface tension, wcsph sums the surface energy "
-                              f"on nodes half a spacing apart over the fluid's extent: this "
-                              f"domain could need {nodes:.3g} of them, more than the "
-                              f"{MAX_TENSION_NODES:.0e} allowed ({16 * MAX_TENSION_NODES / 1e9:g} "
-                              "GB); shrink the domain to where the fluid can go")
-        if lo and hi:
-            for i, r in enumerate(regions):
-                (x0, y0), (x1, y1) = r.bounds()
-                if x0 < lo[0] or y0 < lo[1] or x1 > hi[0] or y1 > hi[1]:
-                    self.fail(f"fluid_regions[{i}]", "reaches outside the domain (its "
-                              "particles there would be removed at once)")
-        if dx and regions and not self.problems:
-            self.check_particle_budget(regions, dx)
-
-        if self.problems:
-            raise SceneError(self.problems, self.source)
-        assert adaptive or dt is not None
-        scene = Scene(domain_min=lo, domain_max=hi, rest_density=rho0, gas_constant=k,
-                      spacing=dx, smoothing_length=h, time_step=dt, name=name,
-                      gravity=gravity, viscosity=eta, surface_tension=sigma,
-                      particle_mass=mass, regions=tuple(regions), walls=tuple(walls),
-                      method=method, duration=duration, wall_restitution=restitution,
-                      surface_threshold=threshold, cfl=cfl, on_instability=on_instability,
-                      speed_of_sound=c0, artificial_viscosity=alpha, periodic=periodic,
-                      background_pressure=p_b, pair_precision=pair_precision,
-                      source=self.source)
-        for i, r in enumerate(scene.regions):
-            pos, _ = _fill_regions((r,), dx)
-            if len(pos) == 0:
-                self.fail(f"fluid_regions[{i}]", f"holds no lattice point at spacing {dx:g} m "
-                          "(the region is smaller than the spacing)")
-        if self.problems:
-            raise SceneError(self.problems, self.source)
-        return scene
-
-    def check_particle_budget(self, regions: list[Region], dx: float) -> None:
-        n = int(sum(r.area() for r in regions) / dx**2)
-        need = n * BYTES_PER_PARTICLE
-        avail = _available_memory()
-        if n > MAX_PARTICLES or (avail is not None and need > 0.8 * avail):
-            have = f"{avail / 2**30:.1f} GiB available" if avail else "the 32-bit index limit"
-            self.fail("fluid_regions", f"would create about {n:,} particles "
-                      f"(~{need / 2**30:.1f} GiB), more than memory allows ({have}); "
-                      "increase resolution.spacing")
+    def resolution(self, d: dict) -> _Resolution:
+        res = self.section(d, "resolution", _RESOLUTION_KEYS)
+        if res is None:
+            return _Resolution(None, None, None)
+        dx = self.number_at(res, "spacing", "resolution.", required=True, low=0)
+        h = None
+        if "smoothing_length" in res:
+            h = self.number(res["smoothing_length"], "resolution.smoothing_length", low=0)
+            if h is not None and dx is not None and h <= dx:
+                self.fail("resolution.smoothing_length",
+                          f"must be > spacing ({dx:g}), got {h:g}: particles on the "
+                          "lattice would not see their neighbours")
+                h = None
+        elif dx is not None:
+            h = DEFAULT_SMOOTHING_FACTOR * dx
+        mass = self.number_at(res, "particle_mass", "resolution.", low=0)
+        return _Resolution(dx, h, mass)
 
     def regions(self, d: dict) -> list[Region]:
-        raw = self.required(d, "fluid_regions", "")
-        if raw is None:
+        if "fluid_regions" not in d:
+            self.missing("fluid_regions")
             return []
+        raw = d["fluid_regions"]
         if not isinstance(raw, list):
             self.fail("fluid_regions", f"expected a list, got {_kind(raw)}")
             return []
-        out = []
-        for i, item in enumerate(raw):
-            path = f"fluid_regions[{i}]"
-            if (item := self.obj(item, path)) is None:
-                continue
-            shape = item.get("shape")
-            if shape not in _SHAPE_KEYS:
-                near = difflib.get_close_matches(str(shape), list(_SHAPE_KEYS), n=1)
-                hint = f' (did you mean "{near[0]}"?)' if near else ""
-                self.fail(f"{path}.shape", f"expected one of rectangle, circle, polygon, got "
-                          f"{json.dumps(shape)}{hint}")
-                continue
-            n_before = len(self.problems)
-            self.keys(item, _SHAPE_KEYS[shape], f"{path}.")
-            vel = self.point(item["velocity"], f"{path}.velocity") if "velocity" in item else (0.0, 0.0)
-            if shape == "rectangle":
-                a = self.req_point(item, "min", f"{path}.")
-                b = self.req_point(item, "max", f"{path}.")
-                if a and b and not (a[0] < b[0] and a[1] < b[1]):
-                    self.fail(path, f"min must be below max in x and y, got min {list(a)}, "
-                              f"max {list(b)}")
-                    continue
-                region = Region("rectangle", (a, b), velocity=vel) if a and b else None
-            elif shape == "circle":
-                c = self.req_point(item, "center", f"{path}.")
-                r = None
-                if "radius" in item:
-                    r = self.number(item["radius"], f"{path}.radius", low=0)
-                else:
-                    self.fail(f"{path}.radius", "required key is missing")
-                region = Region("circle", (c,), radius=r, velocity=vel) if c and r else None
-            else:
-                pts = self.polygon(item.get("points"), f"{path}.points") if "points" in item else None
-                if "points" not in item:
-                    self.fail(f"{path}.points", "required key is missing")
-                region = Region("polygon", tuple(pts), velocity=vel) if pts else None
-            if region is not None and vel is not None and len(self.problems) == n_before:
-                out.append(region)
-        return out
+        regions = [self.region(item, f"fluid_regions[{i}]") for i, item in enumerate(raw)]
+        return [r for r in regions if r is not None]
+
+    def region(self, item: Any, path: str) -> Region | None:
+        """One fluid region; None if it has any problem."""
+        if (item := self.obj(item, path)) is None:
+            return None
+        shape = item.get("shape")
+        if not isinstance(shape, str) or shape not in _SHAPE_KEYS:
+            self.fail(f"{path}.shape", f"expected one of rectangle, circle, polygon, got "
+                      f"{json.dumps(shape)}{_did_you_mean(str(shape), _SHAPE_KEYS)}")
+            return None
+        n_before = len(self.problems)
+        self.keys(item, _SHAPE_KEYS[shape], f"{path}.")
+        velocity = self.point_at(item, "velocity", f"{path}.", (0.0, 0.0))
+        read = {"rectangle": self.rectangle, "circle": self.circle,
+                "polygon": self.polygon_region}[shape]
+        region = read(item, path, velocity or (0.0, 0.0))
+        return region if len(self.problems) == n_before else None
+
+    def rectangle(self, item: dict, path: str, velocity: Point) -> Region | None:
+        a = self.point_at(item, "min", f"{path}.", required=True)
+        b = self.point_at(item, "max", f"{path}.", required=True)
+        if not (a and b):
+            return None
+        if not (a[0] < b[0] and a[1] < b[1]):
+            self.fail(path, f"min must be below max in x and y, got min {list(a)}, "
+                      f"max {list(b)}")
+            return None
+        return Region("rectangle", (a, b), velocity=velocity)
+
+    def circle(self, item: dict, path: str, velocity: Point) -> Region | None:
+        c = self.point_at(item, "center", f"{path}.", required=True)
+        r = self.number_at(item, "radius", f"{path}.", required=True, low=0)
+        return Region("circle", (c,), radius=r, velocity=velocity) if c and r else None
+
+    def polygon_region(self, item: dict, path: str, velocity: Point) -> Region | None:
+        if "points" not in item:
+            self.missing(f"{path}.points")
+            return None
+        pts = self.polygon(item["points"], f"{path}.points")
+        return Region("polygon", tuple(pts), velocity=velocity) if pts else None
 
     def polygon(self, raw: Any, path: str) -> list[Point] | None:
         if not isinstance(raw, list) or len(raw) < 3:
@@ -625,40 +552,221 @@ class _Validator:
         for i, item in enumerate(raw):
             path = f"walls[{i}]"
             if isinstance(item, dict):
-                self.keys(item, _POLYLINE_KEYS, f"{path}.")
-                pts_raw = item.get("polyline")
-                if not isinstance(pts_raw, list) or len(pts_raw) < 2:
-                    self.fail(f"{path}.polyline", "expected a list of at least 2 points [x, y], "
-                              f"got {_kind(pts_raw)}")
-                    continue
-                closed = item.get("closed", False)
-                if not isinstance(closed, bool):
-                    self.fail(f"{path}.closed", f"expected true or false, got {_kind(closed)}")
-                    continue
-                pts = [self.point(p, f"{path}.polyline[{j}]") for j, p in enumerate(pts_raw)]
-                if any(p is None for p in pts):
-                    continue
-                if closed:
-                    pts = pts + [pts[0]]
-                for j in range(len(pts) - 1):
-                    if pts[j] == pts[j + 1]:
-                        where = (f"{path}.polyline[{j + 1}]" if j + 1 < len(pts_raw)
-                                 else f"{path}.closed")
-                        self.fail(where, "repeats the previous point (zero-length segment)")
-                    else:
-                        out.append((pts[j], pts[j + 1]))
+                out += self.polyline(item, path)
             elif isinstance(item, list) and len(item) == 2:
-                a = self.point(item[0], f"{path}[0]")
-                b = self.point(item[1], f"{path}[1]")
-                if a and b:
-                    if a == b:
-                        self.fail(path, "segment has zero length")
-                    else:
-                        out.append((a, b))
+                out += self.segment(item, path)
             else:
                 self.fail(path, "expected a segment [[x1, y1], [x2, y2]] or "
                           f'{{"polyline": [[x, y], ...]}}, got {_kind(item)}')
         return out
+
+    def polyline(self, item: dict, path: str) -> list[tuple[Point, Point]]:
+        """The segments of {"polyline": [[x, y], ...], "closed": false}."""
+        self.keys(item, _POLYLINE_KEYS, f"{path}.")
+        raw = item.get("polyline")
+        if not isinstance(raw, list) or len(raw) < 2:
+            self.fail(f"{path}.polyline", "expected a list of at least 2 points [x, y], "
+                      f"got {_kind(raw)}")
+            return []
+        closed = item.get("closed", False)
+        if not isinstance(closed, bool):
+            self.fail(f"{path}.closed", f"expected true or false, got {_kind(closed)}")
+            return []
+        pts = [self.point(p, f"{path}.polyline[{j}]") for j, p in enumerate(raw)]
+        if any(p is None for p in pts):
+            return []
+        if closed:
+            pts = pts + [pts[0]]
+        out = []
+        for j in range(len(pts) - 1):
+            if pts[j] == pts[j + 1]:
+                where = f"{path}.polyline[{j + 1}]" if j + 1 < len(raw) else f"{path}.closed"
+                self.fail(where, "repeats the previous point (zero-length segment)")
+            else:
+                out.append((pts[j], pts[j + 1]))
+        return out
+
+    def segment(self, item: list, path: str) -> list[tuple[Point, Point]]:
+        """[[x1, y1], [x2, y2]] as a list of one segment (none after a problem)."""
+        a = self.point(item[0], f"{path}[0]")
+        b = self.point(item[1], f"{path}[1]")
+        if not (a and b):
+            return []
+        if a == b:
+            self.fail(path, "segment has zero length")
+            return []
+        return [(a, b)]
+
+    # -- checks across sections
+    def check_cell_grid(self, domain: _Domain, res: _Resolution) -> None:
+        """The cells of size h over the domain stay within the cell grid's bound."""
+        lo, hi, h = domain.lo, domain.hi, res.h
+        if not (lo and hi and h):
+            return
+        cells = ((hi[0] - lo[0]) / h) * ((hi[1] - lo[1]) / h)
+        if cells > MAX_DOMAIN_CELLS:
+            self.fail("domain", f"spans {cells:.3g} cells of the smoothing length "
+                      f"{h:g} m, more than the {MAX_DOMAIN_CELLS:.0e} the cell grid allows; "
+                      "shrink the domain to where the fluid can go")
+
+    def check_periodic_extent(self, domain: _Domain, res: _Resolution, method: Any,
+                              sigma: float | None) -> None:
+        """A periodic axis is long enough for the kernel (and wcsph's colour field)."""
+        lo, hi, h, dx = domain.lo, domain.hi, res.h, res.dx
+        if not (lo and hi and h):
+            return
+        for axis, axis_name, extent in ((0, "x", "wide"), (1, "y", "high")):
+            if not domain.periodic[axis]:
+                continue
+            length = hi[axis] - lo[axis]
+            if length < 2 * h:
+                self.fail("domain.periodic", f"a periodic {axis_name} axis needs a domain at "
+                          f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
+                          f"{length:g} m")
+            elif method == "wcsph" and sigma and dx and length < 4 * h + dx / 2:
+                # cpp/surface_energy.hpp: the colour field's support is 2 h
+                self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
+                          f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
+                          f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
+
+    def check_tension_lattice(self, domain: _Domain, res: _Resolution, method: Any,
+                              sigma: float | None) -> None:
+        """wcsph's surface energy: h of enough spacings, and a node lattice that fits."""
+        lo, hi, h, dx = domain.lo, domain.hi, res.h, res.dx
+        if not (method == "wcsph" and sigma and dx and h):
+            return
+        # cpp/surface_energy.hpp: the surface energy is summed on nodes dx/2
+        # apart over the fluid's bounding box, with a colour kernel of support 2 h.
+        if h < MIN_TENSION_SMOOTHING * dx:
+            self.fail("resolution.smoothing_length", f"with surface tension, wcsph needs "
+                      f"h of at least {MIN_TENSION_SMOOTHING:g} spacings ({h / dx:.3g} "
+                      "given): below that the fluid's own lattice ripple outweighs the "
+                      "surface (README, \"The wcsph method\"); 2 spacings is the default")
+        elif lo and hi:
+            nodes = ((hi[0] - lo[0] + 4 * h) / (dx / 2) + 1) * (
+                (hi[1] - lo[1] + 4 * h) / (dx / 2) + 1)
+            if nodes > MAX_TENSION_NODES:
+                self.fail("domain", f"with surface tension, wcsph sums the surface energy "
+                          f"on nodes half a spacing apart over the fluid's extent: this "
+                          f"domain could need {nodes:.3g} of them, more than the "
+                          f"{MAX_TENSION_NODES:.0e} allowed ({16 * MAX_TENSION_NODES / 1e9:g} "
+                          "GB); shrink the domain to where the fluid can go")
+
+    def check_regions_inside(self, domain: _Domain, regions: list[Region]) -> None:
+        lo, hi = domain.lo, domain.hi
+        if not (lo and hi):
+            return
+        for i, r in enumerate(regions):
+            (x0, y0), (x1, y1) = r.bounds()
+            if x0 < lo[0] or y0 < lo[1] or x1 > hi[0] or y1 > hi[1]:
+                self.fail(f"fluid_regions[{i}]", "reaches outside the domain (its "
+                          "particles there would be removed at once)")
+
+    def check_particle_budget(self, regions: list[Region], dx: float) -> None:
+        n = int(sum(r.area() for r in regions) / dx**2)
+        need = n * BYTES_PER_PARTICLE
+        avail = _available_memory()
+        if n > MAX_PARTICLES or (avail is not None and need > 0.8 * avail):
+            have = f"{avail / 2**30:.1f} GiB available" if avail else "the 32-bit index limit"
+            self.fail("fluid_regions", f"would create about {n:,} particles "
+                      f"(~{need / 2**30:.1f} GiB), more than memory allows ({have}); "
+                      "increase resolution.spacing")
+
+    def check_regions_hold_points(self, regions: Sequence[Region], dx: float) -> None:
+        for i, r in enumerate(regions):
+            pos, _ = _fill_regions((r,), dx)
+            if len(pos) == 0:
+                self.fail(f"fluid_regions[{i}]", f"holds no lattice point at spacing {dx:g} m "
+                          "(the region is smaller than the spacing)")
+
+    # -- primitives: a value at a JSON path, checked; None after a problem
+    def keys(self, obj: dict, allowed: Sequence[str], prefix: str) -> None:
+        for key in obj:
+            if key not in allowed:
+                near = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+                hint = f' (did you mean "{near[0]}"?)' if near else (
+                    f" (expected one of: {', '.join(allowed)})")
+                self.fail(f"{prefix}{key}", f"unknown key{hint}")
+
+    def section(self, d: dict, key: str, allowed: Sequence[str]) -> dict | None:
+        """The required object d[key], its keys checked; None after a problem."""
+        if key not in d:
+            self.missing(key)
+            return None
+        if (obj := self.obj(d[key], key)) is None:
+            return None
+        self.keys(obj, allowed, f"{key}.")
+        return obj
+
+    def obj(self, value: Any, path: str) -> dict | None:
+        if not isinstance(value, dict):
+            self.fail(path, f"expected an object, got {_kind(value)}")
+            return None
+        return value
+
+    def number(self, value: Any, path: str, *, low: float | None = None,
+               strict: bool = True, high: float | None = None) -> float | None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(path, f"expected a number, got {_kind(value)}")
+            return None
+        x = float(value)
+        if not math.isfinite(x):
+            self.fail(path, f"must be finite, got {value!r}")
+            return None
+        if low is not None and (x <= low if strict else x < low):
+            self.fail(path, f"must be {'>' if strict else '>='} {low:g}, got {value!r}")
+            return None
+        if high is not None and x > high:
+            self.fail(path, f"must be <= {high:g}, got {value!r}")
+            return None
+        return x
+
+    def number_at(self, obj: dict, key: str, prefix: str, default: float | None = None, *,
+                  required: bool = False, why: str = "", low: float | None = None,
+                  strict: bool = True, high: float | None = None) -> float | None:
+        """obj[key] as a number within the limits; if absent, the default (or, when
+        required, a problem)."""
+        if key not in obj:
+            if required:
+                self.missing(f"{prefix}{key}", why)
+            return default
+        return self.number(obj[key], f"{prefix}{key}", low=low, strict=strict, high=high)
+
+    def point(self, value: Any, path: str) -> Point | None:
+        if (not isinstance(value, list) or len(value) != 2
+                or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value)):
+            shown = json.dumps(value) if _jsonable(value) else repr(value)
+            self.fail(path, f"expected [x, y], got {shown}")
+            return None
+        if not all(math.isfinite(c) for c in value):
+            self.fail(path, f"must be finite, got {value!r}")
+            return None
+        return (float(value[0]), float(value[1]))
+
+    def point_at(self, obj: dict, key: str, prefix: str, default: Point | None = None, *,
+                 required: bool = False) -> Point | None:
+        """obj[key] as [x, y]; if absent, the default (or, when required, a problem)."""
+        if key not in obj:
+            if required:
+                self.missing(f"{prefix}{key}")
+            return default
+        return self.point(obj[key], f"{prefix}{key}")
+
+    def flags(self, value: Any, path: str) -> tuple[bool, bool]:
+        if not (isinstance(value, list) and len(value) == 2
+                and all(isinstance(c, bool) for c in value)):
+            shown = json.dumps(value) if _jsonable(value) else repr(value)
+            self.fail(path, f"expected [x, y] of true/false, got {shown}")
+            return (False, False)
+        return (value[0], value[1])
+
+    def choice(self, obj: dict, key: str, prefix: str, options: Sequence[str]) -> Any:
+        """obj[key], by default the first option; a problem unless one of the options."""
+        value = obj.get(key, options[0])
+        if value not in options:
+            expected = " or ".join(f'"{o}"' for o in options)
+            self.fail(f"{prefix}{key}", f"expected {expected}, got {json.dumps(value)}")
+        return value
 
 
 def _jsonable(value: Any) -> bool:

@@ -158,7 +158,7 @@ class Simulation:
         """
         if self.adaptive:
             return self._solver.advance_adaptive(float(t_end), 2**62)
-        n = max(0, int(math.ceil((t_end - self.time) / self.scene.time_step - 1e-9)))
+        n = max(0, math.ceil((t_end - self.time) / self.scene.time_step - 1e-9))
         self.step(n)
         return n
 

@@ -16,7 +16,7 @@ import os
 import re
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -239,8 +239,9 @@ def bundled_scenes(folder: Path) -> dict[tuple[str, str], dict]:
     for path in sorted(folder.glob("*.json")):
         shipped = json.loads(path.read_text())
         solver = shipped.setdefault("solver", {})
-        out[(path.name, f"{solver.get('method', 'seed')}, dt as shipped "
-                        f"({solver.get('time_step', 'default')})")] = shipped
+        how = (f"{solver.get('method', 'seed')}, dt as shipped "
+               f"({solver.get('time_step', 'default')})")
+        out[(path.name, how)] = shipped
         for method in METHODS:
             d = copy.deepcopy(shipped)
             d["solver"].update(method=method, time_step="auto")
@@ -280,21 +281,53 @@ def heat_map(results: dict, ks: list[float], dts: list, title: str, path: Path) 
     return True
 
 
+@dataclass(frozen=True)
+class Plan:
+    """What a stress run sweeps and for how long: --quick or --full."""
+
+    ks: list[float]  # gas constants, m^2/s^2
+    dts: list[float]  # fixed time steps, s (each sweep also runs the adaptive step)
+    spacing: float  # m
+    duration: float  # simulated s per sweep run
+    max_wall: float  # wall-time cap per run, s (violent scenes: 4 x)
+    tank_steps: int  # steps of the tank at rest
+
+
+def plan(full: bool) -> Plan:
+    if full:
+        return Plan(ks=[10.0**e for e in range(8)], dts=[1e-5, 1e-4, 1e-3, 1e-2], spacing=0.04,
+                    duration=2.0, max_wall=600.0, tank_steps=1_000_000)
+    return Plan(ks=[1.0, 1e2, 1e4, 1e6], dts=[1e-4, 1e-3, 1e-2], spacing=0.08, duration=0.5,
+                max_wall=30.0, tank_steps=20_000)
+
+
+@dataclass
+class Tally:
+    """The outcomes of every run of a report, counted."""
+
+    status: dict[str, int] = field(default_factory=lambda: {STABLE: 0, CAUGHT: 0, SILENT: 0})
+    runs: int = 0
+    lost: int = 0  # particles gone in runs the guard let finish (the silent failures' count)
+    walls: int = 0  # particles that crossed a wall, in any run
+
+    def add(self, results: dict) -> None:
+        for o in results.values():
+            self.runs += 1
+            self.status[o.status] += 1
+            self.lost += o.lost if o.status != CAUGHT else 0
+            self.walls += o.through_walls
+
+
+def log(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
 def main(args) -> int:
+    """`sphfluid stress`: the sweeps, the violent scenes (and with --full the bundled
+    scenes), a Markdown report; 1 when any run failed silently."""
     full = args.full
-    ks = [10.0**e for e in range(8)] if full else [1.0, 1e2, 1e4, 1e6]
-    dts = [1e-5, 1e-4, 1e-3, 1e-2] if full else [1e-4, 1e-3, 1e-2]
-    spacing = 0.04 if full else 0.08
-    duration = 2.0 if full else 0.5
-    max_wall = 600.0 if full else 30.0
-    tank_steps = 1_000_000 if full else 20_000
-    out_dir = args.out
+    p = plan(full)
     precision = getattr(args, "pair_precision", "double")
-    suffix = "" if precision == "double" else f"_{precision}"
-
-    def log(line: str) -> None:
-        print(line, file=sys.stderr, flush=True)
-
     if full and not args.scenes.is_dir():
         if args.write:
             # Checked before the run: the report would replace the section
@@ -304,102 +337,121 @@ def main(args) -> int:
             return 2
         log(f"no scene folder {args.scenes}: the bundled scenes will be skipped "
             "(--scenes DIR to run them)")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
-    sections = []
-    # lost: particles gone in runs the guard let finish (the silent failures'
-    # count); walls: particles that crossed a wall in any run.
-    totals = {STABLE: 0, CAUGHT: 0, SILENT: 0, "runs": 0, "lost": 0, "walls": 0}
+    tally = Tally()
+    sections = [sweep_section(kind, p, precision, args, tally) for kind in ("dam_break", "splash")]
+    violent = violent_runs(p, precision)
+    tally.add(violent)
+    bundled = None  # not run
+    if full and args.scenes.is_dir():
+        bundled = bundled_runs(args.scenes, p.max_wall, precision)
+        tally.add(bundled)
+    report = report_text(args, p, precision, time.perf_counter() - start, tally, sections,
+                         violent, bundled)
+    print(report)
+    if args.write:
+        from .bench import write_section
 
-    def count(res):
-        for o in res.values():
-            totals["runs"] += 1
-            totals[o.status] += 1
-            totals["lost"] += o.lost if o.status != CAUGHT else 0
-            totals["walls"] += o.through_walls
+        write_section(args.write, report, tag="stress" + ("" if precision == "double"
+                                                          else f" {precision}"))
+        log(f"wrote {args.write}")
+    return 1 if tally.status[SILENT] else 0
 
-    for kind in ("dam_break", "splash"):
-        fixed = sweep(kind, ks, dts, spacing, duration, max_wall, log, precision)
-        auto = sweep(kind, ks, [None], spacing, duration, max_wall, log, precision)
-        count(fixed)
-        count(auto)
-        png = out_dir / f"stability_{kind}{suffix}.png"
-        drew = heat_map({**fixed, **auto}, ks, dts + [None],
-                        f"seed method{'' if precision == 'double' else ', float pair forces'}, "
-                        f"{kind.replace('_', ' ')} (spacing {spacing} m, {duration} s)", png)
-        rows = ["| dt \\ k | " + " | ".join(f"{k:.0e}" for k in ks) + " |",
-                "|---|" + "---|" * len(ks)]
-        for dt in dts + [None]:
-            res = fixed if dt is not None else auto
-            cells = []
-            for k in ks:
-                o = res[(k, dt)]
-                cells.append("stable" if o.status == STABLE else
-                             f"caught ({o.detail})" if o.status == CAUGHT else
-                             f"**SILENT** ({o.detail})")
-            rows.append(f"| {'auto' if dt is None else f'{dt:.0e}'} | " + " | ".join(cells)
-                        + " |")
-        link = os.path.relpath(png, args.write.parent if args.write else Path("."))
-        sections.append(f"### {kind.replace('_', ' ').capitalize()}\n\n" + "\n".join(rows)
-                        + (f"\n\n![{kind}]({link})" if drew else "") + "\n")
 
+def sweep_section(kind: str, p: Plan, precision: str, args, tally: Tally) -> str:
+    """Sweep k x dt (fixed, then adaptive) on one tank: its report section and heat map."""
+    fixed = sweep(kind, p.ks, p.dts, p.spacing, p.duration, p.max_wall, log, precision)
+    auto = sweep(kind, p.ks, [None], p.spacing, p.duration, p.max_wall, log, precision)
+    tally.add(fixed)
+    tally.add(auto)
+    png = args.out / f"stability_{kind}{'' if precision == 'double' else f'_{precision}'}.png"
+    drew = heat_map({**fixed, **auto}, p.ks, p.dts + [None],
+                    f"seed method{'' if precision == 'double' else ', float pair forces'}, "
+                    f"{kind.replace('_', ' ')} (spacing {p.spacing} m, {p.duration} s)", png)
+    rows = ["| dt \\ k | " + " | ".join(f"{k:.0e}" for k in p.ks) + " |",
+            "|---|" + "---|" * len(p.ks)]
+    for dt in p.dts + [None]:
+        res = fixed if dt is not None else auto
+        cells = [sweep_cell(res[(k, dt)]) for k in p.ks]
+        rows.append(f"| {'auto' if dt is None else f'{dt:.0e}'} | " + " | ".join(cells) + " |")
+    link = os.path.relpath(png, args.write.parent if args.write else Path("."))
+    return (f"### {kind.replace('_', ' ').capitalize()}\n\n" + "\n".join(rows)
+            + (f"\n\n![{kind}]({link})" if drew else "") + "\n")
+
+
+def sweep_cell(o: Outcome) -> str:
+    if o.status == STABLE:
+        return "stable"
+    return f"caught ({o.detail})" if o.status == CAUGHT else f"**SILENT** ({o.detail})"
+
+
+def violent_runs(p: Plan, precision: str) -> dict[tuple[str, str], Outcome]:
+    """Each violent scene with each method, by (method, scene name)."""
     violent = {}
     for method in METHODS:
-        for name, d in violent_scenes(tank_steps).items():
+        for name, d in violent_scenes(p.tank_steps).items():
             d["solver"]["method"] = method
-            o = run_violent(name, with_precision(d, precision), max_wall * 4)
+            o = run_violent(name, with_precision(d, precision), p.max_wall * 4)
             violent[(method, name)] = o
             log(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                 f"{o.wall:.1f} s")
-    count(violent)
+    return violent
 
-    def row(first: str, second: str, o: Outcome) -> str:
-        return (f"| {first} | {second} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
-                f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
 
+def bundled_runs(folder: Path, max_wall: float,
+                 precision: str) -> dict[tuple[str, str], Outcome]:
+    """Each scene of folder as shipped and with each method, by (file, how)."""
+    bundled = {}
+    for (name, how), d in bundled_scenes(folder).items():
+        o = run_one(with_precision(d, precision), max_wall)
+        bundled[(name, how)] = o
+        log(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
+            f"{o.wall:.1f} s")
+    return bundled
+
+
+def outcome_row(first: str, second: str, o: Outcome) -> str:
+    return (f"| {first} | {second} | {o.status}{f' ({o.detail})' if o.detail else ''} | "
+            f"{o.steps:,} | {o.sim_time:.3g} | {o.wall:.1f} |")
+
+
+def report_text(args, p: Plan, precision: str, elapsed: float, tally: Tally,
+                sections: list[str], violent: dict, bundled: dict | None) -> str:
+    """The Markdown report: the totals, what was run, then a section per part."""
     vrows = ["| method | scene (adaptive dt) | outcome | steps | simulated s | wall s |",
              "|---|---|---|---:|---:|---:|"]
-    vrows += [row(method, name, o) for (method, name), o in violent.items()]
-
+    vrows += [outcome_row(method, name, o) for (method, name), o in violent.items()]
     scene_rows = []
-    if full:
-        if args.scenes.is_dir():
-            bundled = {}
-            for (name, how), d in bundled_scenes(args.scenes).items():
-                o = run_one(with_precision(d, precision), max_wall)
-                bundled[(name, how)] = o
-                log(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
-                    f"{o.wall:.1f} s")
-            count(bundled)
-            scene_rows = ["### Bundled scenes", "",
-                          f"Each scene in `{args.scenes}` as shipped, then with each method "
-                          "and `time_step: auto`.", "",
-                          "| scene | method, step | outcome | steps | simulated s | wall s |",
-                          "|---|---|---|---:|---:|---:|"]
-            scene_rows += [row(name, how, o) for (name, how), o in bundled.items()] + [""]
-
+    if bundled is not None:
+        scene_rows = ["### Bundled scenes", "",
+                      (f"Each scene in `{args.scenes}` as shipped, then with each method "
+                       "and `time_step: auto`."), "",
+                      "| scene | method, step | outcome | steps | simulated s | wall s |",
+                      "|---|---|---|---:|---:|---:|"]
+        scene_rows += [outcome_row(name, how, o) for (name, how), o in bundled.items()] + [""]
     which = "" if precision == "double" else f" (pair forces in {precision})"
-    command = ("sphfluid stress " + ("--full" if full else "--quick") + f" --out {out_dir}"
+    command = ("sphfluid stress " + ("--full" if args.full else "--quick") + f" --out {args.out}"
                + ("" if precision == "double" else f" --pair-precision {precision}"))
-    report = "\n".join([
-        f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
-        f"Command: `{command}` ({time.perf_counter() - start:.0f} s).",
+    return "\n".join([
+        (f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
+         f"Command: `{command}` ({elapsed:.0f} s)."),
         "",
-        "| runs | stable | caught by the guard | silent failures (goal 0) | particles lost "
-        "in runs not caught (goal 0) | particles through walls, any run (goal 0) |",
+        ("| runs | stable | caught by the guard | silent failures (goal 0) | particles lost "
+         "in runs not caught (goal 0) | particles through walls, any run (goal 0) |"),
         "|---:|---:|---:|---:|---:|---:|",
-        f"| {totals['runs']} | {totals[STABLE]} | {totals[CAUGHT]} | {totals[SILENT]} | "
-        f"{totals['lost']} | {totals['walls']} |",
+        (f"| {tally.runs} | {tally.status[STABLE]} | {tally.status[CAUGHT]} | "
+         f"{tally.status[SILENT]} | {tally.lost} | {tally.walls} |"),
         "",
-        "A particle is lost when it leaves the domain or ends outside the walls' bounding box "
-        "(for an open box: below its top). It went through a wall when the box is closed "
-        "(anything lost), or when it ends outside an open box below its top. Caught runs say "
-        "how many particles had left before the trip.",
+        ("A particle is lost when it leaves the domain or ends outside the walls' bounding box "
+         "(for an open box: below its top). It went through a wall when the box is closed "
+         "(anything lost), or when it ends outside an open box below its top. Caught runs say "
+         "how many particles had left before the trip."),
         "",
-        f"Sweeps: seed method{which}, fixed dt and adaptive (`auto`, cfl 0.4), spacing "
-        f"{spacing} m, {duration} s simulated (a run stopped by its {max_wall:g} s wall-time "
-        "cap counts as stable up to where it got, and says so in the log).",
+        (f"Sweeps: seed method{which}, fixed dt and adaptive (`auto`, cfl 0.4), spacing "
+         f"{p.spacing} m, {p.duration} s simulated (a run stopped by its {p.max_wall:g} s "
+         "wall-time cap counts as stable up to where it got, and says so in the log)."),
         "",
         *sections,
         "### Violent scenes",
@@ -408,11 +460,3 @@ def main(args) -> int:
         "",
         *scene_rows,
     ])
-    print(report)
-    if args.write:
-        from .bench import write_section
-
-        write_section(args.write, report, tag="stress" + ("" if precision == "double"
-                                                          else f" {precision}"))
-        log(f"wrote {args.write}")
-    return 1 if totals[SILENT] else 0

@@ -169,7 +169,7 @@ class Renderer:
             return
         ix, iy = self.screen_points()
         w, h = self.size
-        radius = min(max(0, int(round(0.5 * self.sim.scene.spacing * self.camera.scale))),
+        radius = min(max(0, round(0.5 * self.sim.scene.spacing * self.camera.scale)),
                      (min(w, h) - 1) // 2)
         visible = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
         if not visible.all():
@@ -218,7 +218,7 @@ class Renderer:
         pg.transform.scale(small, (w, h), surface)  # nearest: cells are a few pixels
 
     def draw_colour_bar(self, surface) -> None:
-        values, lut, low, high = self.field()
+        _, lut, low, high = self.field()
         pg = self.pygame
         x0, y0, bw, bh = self.size[0] - 60, 40, 14, max(40, self.size[1] - 120)
         bar = np.repeat(lut[::-1][np.linspace(0, len(lut) - 1, bh).astype(int)][None, :, :], bw,
@@ -376,143 +376,187 @@ def view(scene_path: str | Path | Scene, *, frames: int | None = None,
     import pygame
 
     scene = scene_path if isinstance(scene_path, Scene) else load_scene(scene_path)
-    stem = Path(scene.source).stem if scene.source else "scene"
     sim = Simulation(scene, threads=threads)
     pygame.display.init()  # not pygame.init(): no audio device is needed
     pygame.font.init()
     try:
-        screen = pygame.display.set_mode(size, pygame.RESIZABLE)
-        pygame.display.set_caption(f"sphfluid - {scene.name or 'scene'}")
-        renderer = Renderer(sim, size, mode)
-        editor = Editor(sim, renderer)
-        font = renderer.font
-        realtime = max(1, round(1.0 / (TARGET_FPS * (scene.time_step or 1e-3))))
-        adaptive = steps_per_frame is None
-        n_steps = realtime if adaptive else steps_per_frame
+        window = _Window(pygame, sim, size, mode, steps_per_frame)
         clock = pygame.time.Clock()
-        paused = show_help = False
-        message = ""
         frame = 0
-        step_rate = 0.0
-        draw_ms = 0.0
-        shots = 0
-        running = True
-        cursor = pygame.mouse.get_pos()
-        while running:
-            single = False
+        while window.running:
             if script is not None:
                 script(frame, pygame, sim)
-            for event in pygame.event.get():
-                if event.type == pygame.QUIT:
-                    running = False
-                elif event.type == pygame.VIDEORESIZE:
-                    size = (max(200, event.w), max(150, event.h))
-                    screen = pygame.display.set_mode(size, pygame.RESIZABLE)
-                    renderer.resize(size)
-                elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
-                    editor.begin_wall(*event.pos)
-                elif event.type == pygame.MOUSEBUTTONUP and event.button == 1:
-                    try:
-                        if editor.end_wall(*event.pos):
-                            message = f"wall added ({len(sim.scene.walls)} walls)"
-                    except ValueError as e:
-                        message = f"wall not added: {e}"
-                elif event.type == pygame.MOUSEWHEEL:
-                    renderer.camera.zoom(1.25 ** event.y, *cursor)
-                elif event.type == pygame.MOUSEMOTION:
-                    cursor = event.pos
-                    if event.buttons[2]:
-                        editor.push(event.pos[0], event.pos[1], *event.rel)
-                    elif event.buttons[1]:
-                        renderer.camera.pan(*event.rel)
-                elif event.type == pygame.KEYDOWN:
-                    ctrl = event.mod & pygame.KMOD_CTRL
-                    if event.key in (pygame.K_ESCAPE, pygame.K_q):
-                        running = False
-                    elif event.key == pygame.K_s and ctrl:
-                        out = save_scene(sim, Path(f"{stem}_saved.json"))
-                        message = f"saved {out}"
-                    elif event.key == pygame.K_SPACE:
-                        paused = not paused
-                    elif event.key in (pygame.K_s, pygame.K_RIGHT):
-                        single, paused = True, True
-                    elif event.key == pygame.K_r:
-                        sim.reset()
-                        message = ""
-                    elif event.key in (pygame.K_PLUS, pygame.K_EQUALS, pygame.K_KP_PLUS):
-                        adaptive, n_steps = False, n_steps * 2
-                    elif event.key in (pygame.K_MINUS, pygame.K_KP_MINUS):
-                        adaptive, n_steps = False, max(1, n_steps // 2)
-                    elif event.key in (pygame.K_1, pygame.K_2, pygame.K_3, pygame.K_4):
-                        renderer.mode = MODES[event.key - pygame.K_1]
-                    elif event.key == pygame.K_h:
-                        show_help = not show_help
-                    elif event.key == pygame.K_0:
-                        renderer.resize(size)  # fit the domain again
-                    elif event.key in (pygame.K_x, pygame.K_DELETE):
-                        if editor.delete_wall_at(*cursor):
-                            message = f"wall deleted ({len(sim.scene.walls)} walls)"
-                    elif event.key == pygame.K_e:
-                        editor.toggle_emitter(*cursor)
-                        message = "pouring" if editor.emitter else "pouring stopped"
-                    elif event.key == pygame.K_p:
-                        shots += 1
-                        name = f"{stem}_{shots:03d}.png"
-                        pygame.image.save(screen, name)
-                        message = f"saved {name}"
-            unstable = message.startswith("unstable")
-            todo = 1 if single else (0 if paused or unstable else n_steps)
-            if todo:
-                editor.emit()
-            if todo:
-                t0 = time.perf_counter()
-                try:
-                    sim.step(todo)
-                except InstabilityError as e:
-                    message = f"unstable: {e}"
-                    paused = True
-                step_rate = todo / max(time.perf_counter() - t0, 1e-9)
-                if sim.adaptive and sim.dt > 0:
-                    realtime = max(1, round(1.0 / (TARGET_FPS * sim.dt)))
-                if adaptive and not single:
-                    n_steps = max(1, min(realtime, int(STEP_BUDGET * step_rate)))
-            t0 = time.perf_counter()
-            renderer.draw(screen)
-            draw_ms = 1000 * (time.perf_counter() - t0)
-            if editor.start is not None:  # the wall being drawn
-                a = renderer.camera.to_screen(np.asarray(editor.start))
-                pygame.draw.line(screen, (255, 210, 90), a, cursor, 2)
-            if editor.emitter is not None:
-                e = renderer.camera.to_screen(np.asarray(editor.emitter))
-                pygame.draw.circle(screen, (255, 210, 90), (int(e[0]), int(e[1])), 6, 2)
-            st = sim.stats()
-            status = (f"t = {sim.time:7.3f} s  {clock.get_fps():5.1f} fps  {step_rate:7,.0f} "
-                      f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
-                      f"  max compression {100 * st['max_compression']:.1f} %  dt "
-                      f"{sim.dt:.2e} s ({sim.dt_limit})  {scene.method}"
-                      + (" (float pairs)" if st["pair_precision"] == "float" else "")
-                      + f"  {n_steps} steps/frame"
-                      + ("  PAUSED" if paused else ""))
-            screen.blit(font.render(status, True, TEXT), (8, 5))
-            wx, wy = renderer.camera.to_world(*cursor)
-            footer = (f"{MODE_LABELS[renderer.mode]}   draw {draw_ms:.1f} ms   cursor "
-                      f"({wx:.3f}, {wy:.3f}) m   H: help")
-            screen.blit(font.render(footer, True, DIM), (8, size[1] - 18))
-            if message:
-                screen.blit(font.render(message[:170], True, (255, 140, 120)), (8, 24))
-            if show_help:
-                for i, line in enumerate(HELP):
-                    screen.blit(font.render(line, True, TEXT), (30, 60 + 20 * i))
-            pygame.display.flip()
+            window.frame(clock.get_fps())
             frame += 1
             if frames is not None and frame >= frames:
-                running = False
+                window.running = False
             clock.tick(TARGET_FPS)
         if screenshot is not None:
-            pygame.image.save(screen, str(screenshot))
+            pygame.image.save(window.screen, str(screenshot))
     finally:
         pygame.quit()
     return 0
+
+
+class _Window:
+    """The live window between frames: what runs, what shows, and the last message.
+
+    A frame handles the pending events, steps the simulation and draws.
+    """
+
+    def __init__(self, pygame, sim: Simulation, size: tuple[int, int], mode: str,
+                 steps_per_frame: int | None):
+        self.pygame = pygame
+        self.sim = sim
+        scene = sim.scene
+        self.stem = Path(scene.source).stem if scene.source else "scene"  # of saved files
+        self.size = size
+        self.screen = pygame.display.set_mode(size, pygame.RESIZABLE)
+        pygame.display.set_caption(f"sphfluid - {scene.name or 'scene'}")
+        self.renderer = Renderer(sim, size, mode)
+        self.editor = Editor(sim, self.renderer)
+        # Steps per frame: real time at TARGET_FPS, within STEP_BUDGET, until
+        # + or - (or --steps-per-frame) fixes the count.
+        self.realtime = max(1, round(1.0 / (TARGET_FPS * (scene.time_step or 1e-3))))
+        self.adaptive = steps_per_frame is None
+        self.n_steps = self.realtime if steps_per_frame is None else steps_per_frame
+        self.step_rate = 0.0  # steps/s of the last frame's stepping
+        self.draw_ms = 0.0
+        self.paused = self.show_help = self.single = False
+        self.message = ""
+        self.shots = 0
+        self.running = True
+        self.cursor = pygame.mouse.get_pos()
+
+    def frame(self, fps: float) -> None:
+        self.single = False
+        for event in self.pygame.event.get():
+            self.on_event(event)
+        self.step()
+        self.draw(fps)
+        self.pygame.display.flip()
+
+    # -- events
+    def on_event(self, event) -> None:
+        pg, editor, camera = self.pygame, self.editor, self.renderer.camera
+        if event.type == pg.QUIT:
+            self.running = False
+        elif event.type == pg.VIDEORESIZE:
+            self.size = (max(200, event.w), max(150, event.h))
+            self.screen = pg.display.set_mode(self.size, pg.RESIZABLE)
+            self.renderer.resize(self.size)
+        elif event.type == pg.MOUSEBUTTONDOWN and event.button == 1:
+            editor.begin_wall(*event.pos)
+        elif event.type == pg.MOUSEBUTTONUP and event.button == 1:
+            try:
+                if editor.end_wall(*event.pos):
+                    self.message = f"wall added ({len(self.sim.scene.walls)} walls)"
+            except ValueError as e:
+                self.message = f"wall not added: {e}"
+        elif event.type == pg.MOUSEWHEEL:
+            camera.zoom(1.25 ** event.y, *self.cursor)
+        elif event.type == pg.MOUSEMOTION:
+            self.cursor = event.pos
+            if event.buttons[2]:
+                editor.push(event.pos[0], event.pos[1], *event.rel)
+            elif event.buttons[1]:
+                camera.pan(*event.rel)
+        elif event.type == pg.KEYDOWN:
+            self.on_key(event.key, bool(event.mod & pg.KMOD_CTRL))
+
+    def on_key(self, key: int, ctrl: bool) -> None:
+        """The keys of HELP."""
+        pg, sim, editor = self.pygame, self.sim, self.editor
+        if key in (pg.K_ESCAPE, pg.K_q):
+            self.running = False
+        elif key == pg.K_s and ctrl:
+            self.message = f"saved {save_scene(sim, Path(f'{self.stem}_saved.json'))}"
+        elif key == pg.K_SPACE:
+            self.paused = not self.paused
+        elif key in (pg.K_s, pg.K_RIGHT):
+            self.single = self.paused = True
+        elif key == pg.K_r:
+            sim.reset()
+            self.message = ""
+        elif key in (pg.K_PLUS, pg.K_EQUALS, pg.K_KP_PLUS):
+            self.adaptive, self.n_steps = False, self.n_steps * 2
+        elif key in (pg.K_MINUS, pg.K_KP_MINUS):
+            self.adaptive, self.n_steps = False, max(1, self.n_steps // 2)
+        elif key in (pg.K_1, pg.K_2, pg.K_3, pg.K_4):
+            self.renderer.mode = MODES[key - pg.K_1]
+        elif key == pg.K_h:
+            self.show_help = not self.show_help
+        elif key == pg.K_0:
+            self.renderer.resize(self.size)  # fit the domain again
+        elif key in (pg.K_x, pg.K_DELETE):
+            if editor.delete_wall_at(*self.cursor):
+                self.message = f"wall deleted ({len(sim.scene.walls)} walls)"
+        elif key == pg.K_e:
+            editor.toggle_emitter(*self.cursor)
+            self.message = "pouring" if editor.emitter else "pouring stopped"
+        elif key == pg.K_p:
+            self.shots += 1
+            name = f"{self.stem}_{self.shots:03d}.png"
+            pg.image.save(self.screen, name)
+            self.message = f"saved {name}"
+
+    # -- stepping
+    def step(self) -> None:
+        """This frame's steps: one after S, none while paused or unstable, else n_steps."""
+        sim = self.sim
+        unstable = self.message.startswith("unstable")
+        todo = 1 if self.single else (0 if self.paused or unstable else self.n_steps)
+        if not todo:
+            return
+        self.editor.emit()
+        t0 = time.perf_counter()
+        try:
+            sim.step(todo)
+        except InstabilityError as e:
+            self.message = f"unstable: {e}"
+            self.paused = True
+        self.step_rate = todo / max(time.perf_counter() - t0, 1e-9)
+        if sim.adaptive and sim.dt > 0:
+            self.realtime = max(1, round(1.0 / (TARGET_FPS * sim.dt)))
+        if self.adaptive and not self.single:
+            self.n_steps = max(1, min(self.realtime, int(STEP_BUDGET * self.step_rate)))
+
+    # -- drawing
+    def draw(self, fps: float) -> None:
+        """The particles and walls, the tools in use, then the text."""
+        pg, screen, camera, editor = self.pygame, self.screen, self.renderer.camera, self.editor
+        t0 = time.perf_counter()
+        self.renderer.draw(screen)
+        self.draw_ms = 1000 * (time.perf_counter() - t0)
+        if editor.start is not None:  # the wall being drawn
+            a = camera.to_screen(np.asarray(editor.start))
+            pg.draw.line(screen, (255, 210, 90), a, self.cursor, 2)
+        if editor.emitter is not None:
+            e = camera.to_screen(np.asarray(editor.emitter))
+            pg.draw.circle(screen, (255, 210, 90), (int(e[0]), int(e[1])), 6, 2)
+        font = self.renderer.font
+        screen.blit(font.render(self.status(fps), True, TEXT), (8, 5))
+        wx, wy = camera.to_world(*self.cursor)
+        footer = (f"{MODE_LABELS[self.renderer.mode]}   draw {self.draw_ms:.1f} ms   cursor "
+                  f"({wx:.3f}, {wy:.3f}) m   H: help")
+        screen.blit(font.render(footer, True, DIM), (8, self.size[1] - 18))
+        if self.message:
+            screen.blit(font.render(self.message[:170], True, (255, 140, 120)), (8, 24))
+        if self.show_help:
+            for i, line in enumerate(HELP):
+                screen.blit(font.render(line, True, TEXT), (30, 60 + 20 * i))
+
+    def status(self, fps: float) -> str:
+        """The top line: time, speed, particles, compression, step and method."""
+        sim = self.sim
+        st = sim.stats()
+        return (f"t = {sim.time:7.3f} s  {fps:5.1f} fps  {self.step_rate:7,.0f} "
+                f"steps/s  {sim.n_particles:,} particles ({sim.removed_particles} removed)"
+                f"  max compression {100 * st['max_compression']:.1f} %  dt "
+                f"{sim.dt:.2e} s ({sim.dt_limit})  {sim.scene.method}"
+                + (" (float pairs)" if st["pair_precision"] == "float" else "")
+                + f"  {self.n_steps} steps/frame"
+                + ("  PAUSED" if self.paused else ""))
 
 
 def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
@@ -566,7 +610,7 @@ def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
                 progress(k + 1, n_frames, sim)
         if gif:
             images[0].save(out, save_all=True, append_images=images[1:],
-                           duration=int(round(1000 / fps)), loop=0)
+                           duration=round(1000 / fps), loop=0)
     finally:
         pygame.quit()
     return n_frames
