@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
+from .dam_break import GEOMETRY
 from .simulation import Simulation
 
 
@@ -25,17 +26,9 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0.
     """
     dx = math.sqrt(2.0 / n_target)
-    scene = {
-        "format": "sphfluid-scene/1",
-        "name": f"Dam break, {n_target:,} particles",
-        "gravity": [0.0, -9.81],
-        "domain": {"min": [-0.1, -0.1], "max": [4.1, 3.6]},
-        "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
-        "resolution": {"spacing": dx, "smoothing_length": 2 * dx},
-        "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]}],
-        "walls": [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}],
-        "solver": {"method": method, "time_step": 0.0002 * dx / 0.02},
-    }
+    scene = GEOMETRY.scene(dx, name=f"Dam break, {n_target:,} particles",
+                           fluid={"gas_constant": 250.0, "viscosity": 30.0},
+                           solver={"method": method, "time_step": 0.0002 * dx / 0.02})
     if method == "wcsph":  # a fixed step within its CFL limit: 0.3 (h/2) / c0
         from .scene import load_scene
         from .simulation import speed_of_sound
