@@ -5,18 +5,70 @@ accuracy of the same run, and can write the table into a Markdown file.
 from __future__ import annotations
 
 import datetime
+import importlib.util
 import math
 import os
 import platform
 import sys
 import time
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 from . import _core
 from .dam_break import GEOMETRY
 from .simulation import Simulation
+
+
+# The repository's benchmarks/ folder (peer drivers, reference loop): not in the wheel.
+BENCHMARKS_ENV = "SPHFLUID_BENCHMARKS"
+
+
+class BenchmarksNotFoundError(RuntimeError):
+    """No benchmarks/ folder: an installed wheel, or a wrong --benchmarks-dir."""
+
+
+def benchmarks_dir(explicit: Path | None = None) -> Path:
+    """The repository's benchmarks/ folder: `explicit` (--benchmarks-dir), else
+    $SPHFLUID_BENCHMARKS, else beside the package of a source checkout (an editable
+    install runs the package from <repo>/python/sphfluid).
+
+    Raises BenchmarksNotFoundError, saying where it looked, when there is none.
+    """
+    if explicit is not None or os.environ.get(BENCHMARKS_ENV):
+        given = Path(explicit if explicit is not None else os.environ[BENCHMARKS_ENV])
+        how = "--benchmarks-dir" if explicit is not None else f"${BENCHMARKS_ENV}"
+        if not given.is_dir():
+            raise BenchmarksNotFoundError(f"{how} {given} is not a folder")
+        return given
+    beside = Path(__file__).resolve().parent.parent.parent / "benchmarks"
+    if (beside / "peers").is_dir():
+        return beside
+    raise BenchmarksNotFoundError(
+        "no benchmarks/ folder: it is in a source checkout of sphfluid, not in the wheel "
+        f"(looked in {beside}); give it with --benchmarks-dir DIR or ${BENCHMARKS_ENV}")
+
+
+def load_benchmark(benchmarks: Path, relative: str) -> ModuleType:
+    """Import a Python file of benchmarks/ (e.g. "peers/peers.py") as a module, once
+    per file: a second call returns the module the first one loaded."""
+    path = (Path(benchmarks) / relative).resolve()
+    if not path.is_file():
+        raise BenchmarksNotFoundError(f"{path} is missing")
+    name = "sphfluid_benchmarks_" + relative.removesuffix(".py").replace("/", "_")
+    loaded = sys.modules.get(name)
+    if loaded is not None and Path(loaded.__file__).resolve() == path:
+        return loaded
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while it executes
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
 
 
 def dam_break_scene(n_target: int, method: str = "seed") -> dict:
