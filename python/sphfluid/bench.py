@@ -11,6 +11,7 @@ import os
 import platform
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
@@ -304,72 +305,120 @@ def write_section(path: Path, text: str, tag: str = "bench") -> None:
     path.write_text(new)
 
 
-def main(args) -> int:
-    if args.draw:
-        d = draw_times(args.particles, 30)
-        budget = 1000 / 60 / 4
-        print(f"drawing the dam break, {d['particles']:,} particles, {d['size'][0]}x"
-              f"{d['size'][1]} pixels, median of 30 frames (budget at 60 fps: a quarter "
-              f"frame = {budget:.1f} ms):")
-        for mode, ms in d["ms"].items():
-            print(f"  {mode:9s} {ms:6.2f} ms  {'within' if ms <= budget else 'OVER'} budget")
-        return 0
-    if args.guard_cost:
-        g = guard_cost(args.particles, args.steps, args.repeat)
-        print(f"dam break, {args.particles:,} particles, 1 thread, median of {args.repeat} "
-              f"interleaved runs of {args.steps} steps:\n"
-              f"  step {1e6 * g['step_on']:.0f} us with the guard, {1e6 * g['step_off']:.0f} us "
-              f"without\n  integrate phase {1e6 * g['integrate_on']:.1f} us with, "
-              f"{1e6 * g['integrate_off']:.1f} us without\n"
-              f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
-        return 0
+# --- the command: parsing, running, tabulating, writing -------------------------------
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What `sphfluid bench` times: the cases (pair precision, threads), each run
+    `repeat` times in rounds."""
+
+    particles: int
+    steps: int
+    warmup: int
+    repeat: int
+    method: str
+    threads: tuple[int, ...]
+    precisions: tuple[str, ...]
+    surface_tension: float  # N/m
+
+    @property
+    def cases(self) -> list[tuple[str, int]]:
+        return [(p, t) for p in self.precisions for t in self.threads]
+
+
+def parse_plan(args) -> Plan:
+    """The options of the timing run, checked; ValueError with the message to print."""
     try:
         threads = [int(t) for t in str(args.threads).split(",")]
         if not threads or min(threads) < 1:
             raise ValueError
     except ValueError:
-        print(f"error: --threads: expected a list like 1,2, got {args.threads!r}", file=sys.stderr)
-        return 2
+        raise ValueError(f"--threads: expected a list like 1,2, got {args.threads!r}") from None
     if args.particles < 100 or args.steps < 1:
-        print("error: --particles must be >= 100 and --steps >= 1", file=sys.stderr)
-        return 2
+        raise ValueError("--particles must be >= 100 and --steps >= 1")
     if args.repeat < 1:
-        print("error: --repeat must be >= 1", file=sys.stderr)
-        return 2
+        raise ValueError("--repeat must be >= 1")
     sigma = args.surface_tension
     if not (math.isfinite(sigma) and sigma >= 0):
-        print(f"error: --surface-tension must be a finite number >= 0, got {sigma}",
-              file=sys.stderr)
-        return 2
+        raise ValueError(f"--surface-tension must be a finite number >= 0, got {sigma}")
     precisions = str(args.pair_precision).split(",")
     if not precisions or any(p not in ("double", "float") for p in precisions):
-        print(f"error: --pair-precision: expected double, float or double,float, got "
-              f"{args.pair_precision!r}", file=sys.stderr)
-        return 2
+        raise ValueError(f"--pair-precision: expected double, float or double,float, got "
+                         f"{args.pair_precision!r}")
     if "float" in precisions and args.method != "seed":
-        print("error: --pair-precision float applies to the seed method only", file=sys.stderr)
-        return 2
-    cases = [(p, t) for p in precisions for t in threads]
-    runs: dict[tuple[str, int], list[dict]] = {c: [] for c in cases}
-    for _ in range(args.repeat):  # interleaved, so slow spells of a shared machine hit all
-        for p, t in cases:
-            r = run_case(args.particles, t, args.steps, args.warmup, args.method, sigma, p)
+        raise ValueError("--pair-precision float applies to the seed method only")
+    return Plan(args.particles, args.steps, args.warmup, args.repeat, args.method,
+                tuple(threads), tuple(precisions), sigma)
+
+
+def command_line(plan: Plan, args) -> str:
+    """The command that reproduces the table, as its header quotes it."""
+    return "sphfluid bench " + " ".join(
+        f"--{k} {v}" for k, v in (("particles", plan.particles), ("steps", plan.steps),
+                                  ("warmup", plan.warmup), ("threads", args.threads),
+                                  ("repeat", plan.repeat), ("method", plan.method))) + (
+        f" --pair-precision {args.pair_precision}" if plan.precisions != ("double",) else "") + (
+        f" --surface-tension {plan.surface_tension:g}" if plan.surface_tension else "")
+
+
+def _log(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def run_plan(plan: Plan, log=_log) -> dict:
+    """Our runs of every case, in rounds: one run of each per round, so that slow
+    spells of a shared machine hit all of them. Returns {case: runs}."""
+    runs: dict[tuple[str, int], list[dict]] = {c: [] for c in plan.cases}
+    for _ in range(plan.repeat):
+        for p, t in plan.cases:
+            r = run_case(plan.particles, t, plan.steps, plan.warmup, plan.method,
+                         plan.surface_tension, p)
             runs[(p, t)].append(r)
-            print(f"{t} thread(s), {p} pairs: {r['particles']:,} particles, "
-                  f"{r['steps_per_s']:,.0f} "
-                  f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
-                  f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
-                  f"(Martin & Moyce {r['Z_ref']:.2f})", file=sys.stderr)
-    rows = [median_run(runs[c]) for c in cases]
-    command = "sphfluid bench " + " ".join(
-        f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
-                                  ("warmup", args.warmup), ("threads", args.threads),
-                                  ("repeat", args.repeat), ("method", args.method))) + (
-        f" --pair-precision {args.pair_precision}" if precisions != ["double"] else "") + (
-        f" --surface-tension {sigma:g}" if sigma else "")
-    text = table(rows, command)
+            log(f"{t} thread(s), {p} pairs: {r['particles']:,} particles, "
+                f"{r['steps_per_s']:,.0f} "
+                f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
+                f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
+                f"(Martin & Moyce {r['Z_ref']:.2f})")
+    return runs
+
+
+def main(args) -> int:
+    if args.draw:
+        return print_draw_times(args.particles)
+    if args.guard_cost:
+        return print_guard_cost(args.particles, args.steps, args.repeat)
+    try:
+        plan = parse_plan(args)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    runs = run_plan(plan)
+    text = table([median_run(runs[c]) for c in plan.cases], command_line(plan, args))
     print(text)
     if args.write:
         write_section(args.write, text)
         print(f"wrote {args.write}", file=sys.stderr)
+    return 0
+
+
+def print_draw_times(particles: int) -> int:
+    d = draw_times(particles, 30)
+    budget = 1000 / 60 / 4
+    print(f"drawing the dam break, {d['particles']:,} particles, {d['size'][0]}x"
+          f"{d['size'][1]} pixels, median of 30 frames (budget at 60 fps: a quarter "
+          f"frame = {budget:.1f} ms):")
+    for mode, ms in d["ms"].items():
+        print(f"  {mode:9s} {ms:6.2f} ms  {'within' if ms <= budget else 'OVER'} budget")
+    return 0
+
+
+def print_guard_cost(particles: int, steps: int, repeat: int) -> int:
+    g = guard_cost(particles, steps, repeat)
+    print(f"dam break, {particles:,} particles, 1 thread, median of {repeat} "
+          f"interleaved runs of {steps} steps:\n"
+          f"  step {1e6 * g['step_on']:.0f} us with the guard, {1e6 * g['step_off']:.0f} us "
+          f"without\n  integrate phase {1e6 * g['integrate_on']:.1f} us with, "
+          f"{1e6 * g['integrate_off']:.1f} us without\n"
+          f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
     return 0
