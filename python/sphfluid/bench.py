@@ -9,7 +9,9 @@ import importlib.util
 import math
 import os
 import platform
+import statistics
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -366,10 +368,12 @@ def _log(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-def run_plan(plan: Plan, log=_log) -> dict:
-    """Our runs of every case, in rounds: one run of each per round, so that slow
-    spells of a shared machine hit all of them. Returns {case: runs}."""
+def run_plan(plan: Plan, reference=None, log=_log) -> tuple[dict, dict]:
+    """Our runs of every case, and the reference loop's on every thread count when
+    given, in rounds: one run of each per round, so that slow spells of a shared
+    machine hit all of them. Returns ({case: runs}, {threads: reference steps/s})."""
     runs: dict[tuple[str, int], list[dict]] = {c: [] for c in plan.cases}
+    ref_runs: dict[int, list[float]] = {t: [] for t in plan.threads} if reference else {}
     for _ in range(plan.repeat):
         for p, t in plan.cases:
             r = run_case(plan.particles, t, plan.steps, plan.warmup, plan.method,
@@ -380,7 +384,14 @@ def run_plan(plan: Plan, log=_log) -> dict:
                 f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
                 f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
                 f"(Martin & Moyce {r['Z_ref']:.2f})")
-    return runs
+        try:
+            for t in ref_runs:
+                ref_runs[t].append(reference.run(t))
+                log(f"{t} thread(s), reference loop: {ref_runs[t][-1]:,.0f} steps/s")
+        except RuntimeError as e:
+            log(f"note: the reference loop failed ({e}); the table goes on without it")
+            ref_runs.clear()
+    return runs, ref_runs
 
 
 def main(args) -> int:
@@ -393,8 +404,12 @@ def main(args) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    runs = run_plan(plan)
+    with tempfile.TemporaryDirectory(prefix="sphfluid-bench-reference-") as folder:
+        reference = ReferenceRuns.prepare(plan, Path(folder), args.benchmarks_dir)
+        runs, ref_runs = run_plan(plan, reference)
     text = table([median_run(runs[c]) for c in plan.cases], command_line(plan, args))
+    if ref_runs:
+        text += "\n" + reference_lines(plan, runs, ref_runs, reference.note)
     print(text)
     if args.write:
         write_section(args.write, text)
@@ -422,3 +437,74 @@ def print_guard_cost(particles: int, steps: int, repeat: int) -> int:
           f"{1e6 * g['integrate_off']:.1f} us without\n"
           f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
     return 0
+
+
+# --- the reference loop: benchmarks/reference_loop.cpp --------------------------------
+
+
+class ReferenceRuns:
+    """The plain reference loop (benchmarks/reference_loop.cpp), built once, run on
+    the plan's dam break: the seed's particles, physics, dt and steps, its walls by
+    reflection (benchmarks/reference_loop.py builds and runs it)."""
+
+    def __init__(self, loop: ModuleType, binary: Path, inputs: dict[int, Path], note: str):
+        self.loop, self.binary, self.inputs, self.note = loop, binary, inputs, note
+
+    @classmethod
+    def prepare(cls, plan: Plan, folder: Path, explicit: Path | None = None, log=_log):
+        """Build the loop and write its inputs into `folder`, one per thread count;
+        None, after a one-line note, when benchmarks/ or a compiler is missing."""
+        try:
+            loop = load_benchmark(benchmarks_dir(explicit), "reference_loop.py")
+            binary = loop.build()
+        except (BenchmarksNotFoundError, RuntimeError) as e:
+            log(f"note: no reference loop ({e}); the table goes on without it")
+            return None
+        inputs = {t: reference_input(loop, folder / f"threads_{t}.txt", plan, t)
+                  for t in plan.threads}
+        note = f"`{loop.compiler()} {' '.join(loop.FLAGS)}`"
+        return cls(loop, binary, inputs, note)
+
+    def run(self, threads: int) -> float:
+        return self.loop.run(self.binary, self.inputs[threads])
+
+
+def reference_input(loop: ModuleType, path: Path, plan: Plan, threads: int) -> Path:
+    """The reference loop's input: the seed's dam break at plan.particles (its
+    lattice, mass, h, k, rho0, eta, g and dt), plan.warmup + plan.steps steps."""
+    from .scene import load_scene
+
+    scene = load_scene(dam_break_scene(plan.particles, "seed"))
+    positions, velocities = scene.lattice_points()
+    mass = (scene.particle_mass if scene.particle_mass is not None
+            else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
+                                            scene.smoothing_length))
+    return loop.write_input(path, positions, velocities, mass=mass,
+                            h=scene.smoothing_length, k=scene.gas_constant,
+                            rho0=scene.rest_density, eta=scene.viscosity,
+                            gx=scene.gravity[0], gy=scene.gravity[1], tank=GEOMETRY.tank,
+                            dt=scene.time_step, warmup=plan.warmup, steps=plan.steps,
+                            threads=threads)
+
+
+def reference_lines(plan: Plan, runs: dict, ref_runs: dict, compiled: str) -> str:
+    """Our speed as a multiple of the reference loop's, per thread count: the median
+    over the rounds of each round's ratio, so that the machine's speed cancels."""
+    lines = [
+        ("Reference loop (`benchmarks/reference_loop.cpp`, built with " + compiled + "): "
+         "the seed's density, pressure and viscosity forces and semi-implicit Euler over a "
+         "cell list rebuilt every step, scalar C++17 with one OpenMP loop per pass, the "
+         "walls by reflection instead of ghosts; on the same particles, dt and steps, run "
+         "in each round after ours. Ours ÷ reference: the median over the rounds of each "
+         "round's ratio of steps/s."),
+        "",
+    ]
+    for t, ref in ref_runs.items():
+        ratios = ", ".join(
+            f"{pairs_label(median_run(runs[(p, t)]))} "
+            f"{statistics.median(r['steps_per_s'] / f for r, f in zip(runs[(p, t)], ref)):.2f}"
+            for p in plan.precisions)
+        lines.append(f"- {t} thread{'s' if t > 1 else ''}: reference "
+                     f"{statistics.median(ref):,.0f} steps/s ({min(ref):,.0f}–{max(ref):,.0f}); "
+                     f"ours ÷ reference: {ratios}")
+    return "\n".join(lines) + "\n"

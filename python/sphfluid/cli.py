@@ -119,8 +119,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="--suite: also run PySPH and SPlisHSPlasH on the same dam break "
                         "when installed (docs/peers.md)")
     b.add_argument("--benchmarks-dir", type=Path, metavar="DIR",
-                   help="the repository's benchmarks/ folder, for --peers (default: "
-                        "$SPHFLUID_BENCHMARKS, else the one beside a source checkout's package)")
+                   help="the repository's benchmarks/ folder: the peer drivers (--peers) and "
+                        "the reference loop (default: $SPHFLUID_BENCHMARKS, else the one "
+                        "beside a source checkout's package)")
     s = sub.add_parser("stress", help="stability matrix and violent scenes",
                        description="Sweep k x dt for the seed method on the dam break and the "
                                    "splash (fixed and adaptive dt), then violent scenes (and, with "
