@@ -1,6 +1,9 @@
 """`sphfluid bench`: the dam break at about N particles, fixed dt, timed on 1 and 2
 threads. Prints steps/s, particle-steps/s and per-phase times next to the
-accuracy of the same run, and can write the table into a Markdown file.
+accuracy of the same run, and our steps/s as a multiple of a plain reference
+loop's (benchmarks/reference_loop.cpp, from a source checkout's benchmarks/
+folder, which this module also finds and imports from); can write the table
+into a Markdown file.
 """
 from __future__ import annotations
 

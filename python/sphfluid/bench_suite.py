@@ -1,7 +1,8 @@
 """`sphfluid bench --suite`: the dam break from ~1k to ~1M particles and the bare
 loop (no walls, no viscosity, no tension), each on 1 and 2 threads, for every
-method; time to solution of 1.0 s of the dam break against its front error; the
-peers (PySPH, SPlisHSPlasH) when installed. Writes the tables and a log-log plot
+method; time to solution of 1.0 s of the dam break against its front error; with
+--peers, every configuration of the peers (PySPH, SPlisHSPlasH) that are installed,
+run by benchmarks/peers/ of a source checkout. Writes the tables and a log-log plot
 of time per step against N.
 
 Every timed configuration runs in a fresh child process, so its peak memory is
