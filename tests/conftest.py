@@ -9,7 +9,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = sorted((ROOT / "scenes").glob("*.json"))
+BENCHMARKS = ROOT / "benchmarks"  # drivers and experiments, not in the wheel
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def benchmark_module(relative: str):
+    """A Python file of benchmarks/ (e.g. "peers/peers.py") imported as a module, the
+    way `sphfluid bench` imports it."""
+    from sphfluid.bench import load_benchmark
+
+    return load_benchmark(BENCHMARKS, relative)
 
 BASE_SCENE = {
     "format": "sphfluid-scene/1",

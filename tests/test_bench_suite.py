@@ -1,9 +1,12 @@
 """bench --suite's pieces on a small case (the suite itself is a long run)."""
 from __future__ import annotations
 
-import pytest
+from types import SimpleNamespace
 
+import pytest
+from conftest import BENCHMARKS
 from sphfluid import bench_suite
+from sphfluid.bench import BENCHMARKS_ENV
 
 
 def test_one_configuration_reports_speed_memory_and_the_front():
@@ -67,3 +70,68 @@ def test_repeats_report_the_median_run_and_the_range():
            "phases_us": {"sort": 1.0}, "pairs_per_particle": 10.0, "bytes_per_particle": 190.0,
            "peak_bytes_per_particle": 400.0, "runs": 3, "failed": 1, "range": (90.0, 120.0)}
     assert "| 90.0–120.0 (1 failed) |" in bench_suite.throughput_table([row])
+
+
+def _peer_result(name, configuration, wall, error, crashed=""):
+    return SimpleNamespace(name=name, configuration=configuration, method=configuration.upper(),
+                           version="1.0", particles=10_011, steps=1000, wall_s=wall,
+                           particle_steps_per_s=10_011 * 1000 / wall, front_error=error,
+                           crashed=crashed, note=f"{configuration} note.")
+
+
+def test_peer_table_has_a_row_per_configuration_and_names_each_peers_fastest():
+    results = {("a", "slow"): _peer_result("a", "slow", 60.0, 0.24),
+               ("a", "fast"): _peer_result("a", "fast", 17.0, 0.31),
+               ("a", "faster-but-crashed"): _peer_result("a", "faster-but-crashed", 5.0, 0.2,
+                                                         "killed by SIGSEGV at t = 0.5 s"),
+               ("b", "only"): _peer_result("b", "only", 40.0, 0.25, "killed by SIGSEGV")}
+    harness = SimpleNamespace(
+        available=lambda: {"a": None, "b": None, "c": "not installed"},
+        configurations=lambda name: tuple(c for p, c in results if p == name),
+        run_peer=lambda name, configuration, **kw: results[(name, configuration)])
+    ours = [{"method": "seed", "particles": 990, "steps": 663, "wall": 0.03, "error": 0.26},
+            {"method": "wcsph", "particles": 10_011, "steps": 12_216, "wall": 5.2, "error": 0.16}]
+    lines = bench_suite.run_peers(harness, 10_000, 1.0, ours, log=lambda line: None)
+    rows = [line for line in lines if line.startswith("| a ") or line.startswith("| b ")]
+    assert [r.split(" | ")[1] for r in rows] == ["slow", "fast", "faster-but-crashed", "only"]
+    assert "| 17.0 |" in rows[1] and "| 0.310 |" in rows[1]
+    # ours to an error no worse than 0.31: the seed at 990 particles; than 0.24: wcsph
+    assert "0.03 (seed, 990 particles; 567x faster)" in rows[1]
+    assert "5.20 (wcsph, 10,011 particles; 12x faster)" in rows[0]
+    assert any(line.startswith("| c |") and "skipped: not installed" in line for line in lines)
+    fastest = [line for line in lines if line.startswith("- ")]
+    assert fastest[0].startswith("- a: `fast`, 17.0 s at front error 0.310")
+    assert fastest[1] == "- b: no configuration reached the end time."
+    assert "Ours at the same particle count: wcsph 5.20 s" in lines[-1]
+
+
+def test_suite_finds_the_peer_harness_in_a_source_checkout(monkeypatch):
+    monkeypatch.delenv(BENCHMARKS_ENV, raising=False)
+    peers = bench_suite.load_peers()
+    assert peers.__file__ == str(BENCHMARKS / "peers" / "peers.py")
+    assert set(peers.PEERS) == {"pysph", "splishsplash"}
+    assert bench_suite.load_peers() is peers  # loaded once
+    monkeypatch.setenv(BENCHMARKS_ENV, str(BENCHMARKS))
+    assert bench_suite.load_peers() is peers
+
+
+def test_suite_with_peers_and_no_benchmarks_folder_exits_2_before_running(
+        monkeypatch, tmp_path, capsys):
+    """An installed wheel has no benchmarks/: say so, no traceback, nothing run."""
+    from sphfluid import bench
+    from sphfluid.cli import main
+
+    monkeypatch.setattr(bench_suite, "run_throughput",
+                        lambda *a, **k: pytest.fail("the suite ran"))
+    monkeypatch.delenv(BENCHMARKS_ENV, raising=False)
+    wheel = tmp_path / "site-packages" / "sphfluid"
+    monkeypatch.setattr(bench, "__file__", str(wheel / "bench.py"))
+    assert main(["bench", "--suite", "--peers"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --peers: no benchmarks/ folder") and "Traceback" not in err
+    assert "not in the wheel" in err and "--benchmarks-dir" in err
+    assert main(["bench", "--suite", "--peers", "--benchmarks-dir", str(tmp_path / "no")]) == 2
+    assert "--benchmarks-dir" in capsys.readouterr().err
+    monkeypatch.setenv(BENCHMARKS_ENV, str(tmp_path))  # a folder without the harness
+    assert main(["bench", "--suite", "--peers"]) == 2
+    assert "peers.py is missing" in capsys.readouterr().err

@@ -27,7 +27,9 @@ def test_wendland_gradient_and_laplacian_match_finite_differences():
     rng = np.random.default_rng(4)
     pts = rng.uniform(-H, H, (200, 2))
     pts = pts[(np.hypot(*pts.T) < 0.95 * H) & (np.hypot(*pts.T) > 0.05 * H)]
-    w = lambda p: k.wendland_w(np.hypot(*p.T), H)
+    def w(p):
+        return k.wendland_w(np.hypot(*p.T), H)
+
     eps = 1e-6 * H
     num = np.stack([(w(pts + e) - w(pts - e)) / (2 * eps)
                     for e in (np.array([eps, 0.0]), np.array([0.0, eps]))], axis=1)

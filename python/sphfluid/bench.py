@@ -1,21 +1,80 @@
 """`sphfluid bench`: the dam break at about N particles, fixed dt, timed on 1 and 2
 threads. Prints steps/s, particle-steps/s and per-phase times next to the
-accuracy of the same run, and can write the table into a Markdown file.
+accuracy of the same run, and our steps/s as a multiple of a plain reference
+loop's (benchmarks/reference_loop.cpp, from a source checkout's benchmarks/
+folder, which this module also finds and imports from); can write the table
+into a Markdown file.
 """
 from __future__ import annotations
 
 import datetime
+import importlib.util
 import math
 import os
 import platform
+import statistics
 import sys
+import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 from . import _core
+from .dam_break import GEOMETRY
 from .simulation import Simulation
+
+
+# The repository's benchmarks/ folder (peer drivers, reference loop): not in the wheel.
+BENCHMARKS_ENV = "SPHFLUID_BENCHMARKS"
+
+
+class BenchmarksNotFoundError(RuntimeError):
+    """No benchmarks/ folder: an installed wheel, or a wrong --benchmarks-dir."""
+
+
+def benchmarks_dir(explicit: Path | None = None) -> Path:
+    """The repository's benchmarks/ folder: `explicit` (--benchmarks-dir), else
+    $SPHFLUID_BENCHMARKS, else beside the package of a source checkout (an editable
+    install runs the package from <repo>/python/sphfluid).
+
+    Raises BenchmarksNotFoundError, saying where it looked, when there is none.
+    """
+    if explicit is not None or os.environ.get(BENCHMARKS_ENV):
+        given = Path(explicit if explicit is not None else os.environ[BENCHMARKS_ENV])
+        how = "--benchmarks-dir" if explicit is not None else f"${BENCHMARKS_ENV}"
+        if not given.is_dir():
+            raise BenchmarksNotFoundError(f"{how} {given} is not a folder")
+        return given
+    beside = Path(__file__).resolve().parent.parent.parent / "benchmarks"
+    if (beside / "peers").is_dir():
+        return beside
+    raise BenchmarksNotFoundError(
+        "no benchmarks/ folder: it is in a source checkout of sphfluid, not in the wheel "
+        f"(looked in {beside}); give it with --benchmarks-dir DIR or ${BENCHMARKS_ENV}")
+
+
+def load_benchmark(benchmarks: Path, relative: str) -> ModuleType:
+    """Import a Python file of benchmarks/ (e.g. "peers/peers.py") as a module, once
+    per file: a second call returns the module the first one loaded."""
+    path = (Path(benchmarks) / relative).resolve()
+    if not path.is_file():
+        raise BenchmarksNotFoundError(f"{path} is missing")
+    name = "sphfluid_benchmarks_" + relative.removesuffix(".py").replace("/", "_")
+    loaded = sys.modules.get(name)
+    if loaded is not None and Path(loaded.__file__).resolve() == path:
+        return loaded
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while it executes
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
 
 
 def dam_break_scene(n_target: int, method: str = "seed") -> dict:
@@ -25,17 +84,9 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0.
     """
     dx = math.sqrt(2.0 / n_target)
-    scene = {
-        "format": "sphfluid-scene/1",
-        "name": f"Dam break, {n_target:,} particles",
-        "gravity": [0.0, -9.81],
-        "domain": {"min": [-0.1, -0.1], "max": [4.1, 3.6]},
-        "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
-        "resolution": {"spacing": dx, "smoothing_length": 2 * dx},
-        "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 2.0]}],
-        "walls": [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}],
-        "solver": {"method": method, "time_step": 0.0002 * dx / 0.02},
-    }
+    scene = GEOMETRY.scene(dx, name=f"Dam break, {n_target:,} particles",
+                           fluid={"gas_constant": 250.0, "viscosity": 30.0},
+                           solver={"method": method, "time_step": 0.0002 * dx / 0.02})
     if method == "wcsph":  # a fixed step within its CFL limit: 0.3 (h/2) / c0
         from .scene import load_scene
         from .simulation import speed_of_sound
@@ -259,72 +310,204 @@ def write_section(path: Path, text: str, tag: str = "bench") -> None:
     path.write_text(new)
 
 
-def main(args) -> int:
-    if args.draw:
-        d = draw_times(args.particles, 30)
-        budget = 1000 / 60 / 4
-        print(f"drawing the dam break, {d['particles']:,} particles, {d['size'][0]}x"
-              f"{d['size'][1]} pixels, median of 30 frames (budget at 60 fps: a quarter "
-              f"frame = {budget:.1f} ms):")
-        for mode, ms in d["ms"].items():
-            print(f"  {mode:9s} {ms:6.2f} ms  {'within' if ms <= budget else 'OVER'} budget")
-        return 0
-    if args.guard_cost:
-        g = guard_cost(args.particles, args.steps, args.repeat)
-        print(f"dam break, {args.particles:,} particles, 1 thread, median of {args.repeat} "
-              f"interleaved runs of {args.steps} steps:\n"
-              f"  step {1e6 * g['step_on']:.0f} us with the guard, {1e6 * g['step_off']:.0f} us "
-              f"without\n  integrate phase {1e6 * g['integrate_on']:.1f} us with, "
-              f"{1e6 * g['integrate_off']:.1f} us without\n"
-              f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
-        return 0
+# --- the command: parsing, running, tabulating, writing -------------------------------
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What `sphfluid bench` times: the cases (pair precision, threads), each run
+    `repeat` times in rounds."""
+
+    particles: int
+    steps: int
+    warmup: int
+    repeat: int
+    method: str
+    threads: tuple[int, ...]
+    precisions: tuple[str, ...]
+    surface_tension: float  # N/m
+
+    @property
+    def cases(self) -> list[tuple[str, int]]:
+        return [(p, t) for p in self.precisions for t in self.threads]
+
+
+def parse_plan(args) -> Plan:
+    """The options of the timing run, checked; ValueError with the message to print."""
     try:
         threads = [int(t) for t in str(args.threads).split(",")]
         if not threads or min(threads) < 1:
             raise ValueError
     except ValueError:
-        print(f"error: --threads: expected a list like 1,2, got {args.threads!r}", file=sys.stderr)
-        return 2
+        raise ValueError(f"--threads: expected a list like 1,2, got {args.threads!r}") from None
     if args.particles < 100 or args.steps < 1:
-        print("error: --particles must be >= 100 and --steps >= 1", file=sys.stderr)
-        return 2
+        raise ValueError("--particles must be >= 100 and --steps >= 1")
     if args.repeat < 1:
-        print("error: --repeat must be >= 1", file=sys.stderr)
-        return 2
+        raise ValueError("--repeat must be >= 1")
     sigma = args.surface_tension
     if not (math.isfinite(sigma) and sigma >= 0):
-        print(f"error: --surface-tension must be a finite number >= 0, got {sigma}",
-              file=sys.stderr)
-        return 2
+        raise ValueError(f"--surface-tension must be a finite number >= 0, got {sigma}")
     precisions = str(args.pair_precision).split(",")
     if not precisions or any(p not in ("double", "float") for p in precisions):
-        print(f"error: --pair-precision: expected double, float or double,float, got "
-              f"{args.pair_precision!r}", file=sys.stderr)
-        return 2
+        raise ValueError(f"--pair-precision: expected double, float or double,float, got "
+                         f"{args.pair_precision!r}")
     if "float" in precisions and args.method != "seed":
-        print("error: --pair-precision float applies to the seed method only", file=sys.stderr)
-        return 2
-    cases = [(p, t) for p in precisions for t in threads]
-    runs: dict[tuple[str, int], list[dict]] = {c: [] for c in cases}
-    for _ in range(args.repeat):  # interleaved, so slow spells of a shared machine hit all
-        for p, t in cases:
-            r = run_case(args.particles, t, args.steps, args.warmup, args.method, sigma, p)
+        raise ValueError("--pair-precision float applies to the seed method only")
+    return Plan(args.particles, args.steps, args.warmup, args.repeat, args.method,
+                tuple(threads), tuple(precisions), sigma)
+
+
+def command_line(plan: Plan, args) -> str:
+    """The command that reproduces the table, as its header quotes it."""
+    return "sphfluid bench " + " ".join(
+        f"--{k} {v}" for k, v in (("particles", plan.particles), ("steps", plan.steps),
+                                  ("warmup", plan.warmup), ("threads", args.threads),
+                                  ("repeat", plan.repeat), ("method", plan.method))) + (
+        f" --pair-precision {args.pair_precision}" if plan.precisions != ("double",) else "") + (
+        f" --surface-tension {plan.surface_tension:g}" if plan.surface_tension else "")
+
+
+def _log(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def run_plan(plan: Plan, reference=None, log=_log) -> tuple[dict, dict]:
+    """Our runs of every case, and the reference loop's on every thread count when
+    given, in rounds: one run of each per round, so that slow spells of a shared
+    machine hit all of them. Returns ({case: runs}, {threads: reference steps/s})."""
+    runs: dict[tuple[str, int], list[dict]] = {c: [] for c in plan.cases}
+    ref_runs: dict[int, list[float]] = {t: [] for t in plan.threads} if reference else {}
+    for _ in range(plan.repeat):
+        for p, t in plan.cases:
+            r = run_case(plan.particles, t, plan.steps, plan.warmup, plan.method,
+                         plan.surface_tension, p)
             runs[(p, t)].append(r)
-            print(f"{t} thread(s), {p} pairs: {r['particles']:,} particles, "
-                  f"{r['steps_per_s']:,.0f} "
-                  f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
-                  f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
-                  f"(Martin & Moyce {r['Z_ref']:.2f})", file=sys.stderr)
-    rows = [median_run(runs[c]) for c in cases]
-    command = "sphfluid bench " + " ".join(
-        f"--{k} {v}" for k, v in (("particles", args.particles), ("steps", args.steps),
-                                  ("warmup", args.warmup), ("threads", args.threads),
-                                  ("repeat", args.repeat), ("method", args.method))) + (
-        f" --pair-precision {args.pair_precision}" if precisions != ["double"] else "") + (
-        f" --surface-tension {sigma:g}" if sigma else "")
-    text = table(rows, command)
+            log(f"{t} thread(s), {p} pairs: {r['particles']:,} particles, "
+                f"{r['steps_per_s']:,.0f} "
+                f"steps/s, {r['pps'] / 1e6:.2f} M particle-steps/s, {r['ns_per_ps']:.1f} "
+                f"ns/particle-step; front Z = {r['Z']:.2f} at T = {r['T']:.2f} "
+                f"(Martin & Moyce {r['Z_ref']:.2f})")
+        try:
+            for t in ref_runs:
+                ref_runs[t].append(reference.run(t))
+                log(f"{t} thread(s), reference loop: {ref_runs[t][-1]:,.0f} steps/s")
+        except RuntimeError as e:
+            log(f"note: the reference loop failed ({e}); the table goes on without it")
+            ref_runs.clear()
+    return runs, ref_runs
+
+
+def main(args) -> int:
+    if args.draw:
+        return print_draw_times(args.particles)
+    if args.guard_cost:
+        return print_guard_cost(args.particles, args.steps, args.repeat)
+    try:
+        plan = parse_plan(args)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    with tempfile.TemporaryDirectory(prefix="sphfluid-bench-reference-") as folder:
+        reference = ReferenceRuns.prepare(plan, Path(folder), args.benchmarks_dir)
+        runs, ref_runs = run_plan(plan, reference)
+    text = table([median_run(runs[c]) for c in plan.cases], command_line(plan, args))
+    if ref_runs:
+        text += "\n" + reference_lines(plan, runs, ref_runs, reference.note)
     print(text)
     if args.write:
         write_section(args.write, text)
         print(f"wrote {args.write}", file=sys.stderr)
     return 0
+
+
+def print_draw_times(particles: int) -> int:
+    d = draw_times(particles, 30)
+    budget = 1000 / 60 / 4
+    print(f"drawing the dam break, {d['particles']:,} particles, {d['size'][0]}x"
+          f"{d['size'][1]} pixels, median of 30 frames (budget at 60 fps: a quarter "
+          f"frame = {budget:.1f} ms):")
+    for mode, ms in d["ms"].items():
+        print(f"  {mode:9s} {ms:6.2f} ms  {'within' if ms <= budget else 'OVER'} budget")
+    return 0
+
+
+def print_guard_cost(particles: int, steps: int, repeat: int) -> int:
+    g = guard_cost(particles, steps, repeat)
+    print(f"dam break, {particles:,} particles, 1 thread, median of {repeat} "
+          f"interleaved runs of {steps} steps:\n"
+          f"  step {1e6 * g['step_on']:.0f} us with the guard, {1e6 * g['step_off']:.0f} us "
+          f"without\n  integrate phase {1e6 * g['integrate_on']:.1f} us with, "
+          f"{1e6 * g['integrate_off']:.1f} us without\n"
+          f"  guard cost {100 * g['cost_fraction']:.2f} % of a step")
+    return 0
+
+
+# --- the reference loop: benchmarks/reference_loop.cpp --------------------------------
+
+
+class ReferenceRuns:
+    """The plain reference loop (benchmarks/reference_loop.cpp), built once, run on
+    the plan's dam break: the seed's particles, physics, dt and steps, its walls by
+    reflection (benchmarks/reference_loop.py builds and runs it)."""
+
+    def __init__(self, loop: ModuleType, binary: Path, inputs: dict[int, Path], note: str):
+        self.loop, self.binary, self.inputs, self.note = loop, binary, inputs, note
+
+    @classmethod
+    def prepare(cls, plan: Plan, folder: Path, explicit: Path | None = None, log=_log):
+        """Build the loop and write its inputs into `folder`, one per thread count;
+        None, after a one-line note, when benchmarks/ or a compiler is missing."""
+        try:
+            loop = load_benchmark(benchmarks_dir(explicit), "reference_loop.py")
+            binary = loop.build()
+        except (BenchmarksNotFoundError, RuntimeError) as e:
+            log(f"note: no reference loop ({e}); the table goes on without it")
+            return None
+        inputs = {t: reference_input(loop, folder / f"threads_{t}.txt", plan, t)
+                  for t in plan.threads}
+        note = f"`{loop.compiler()} {' '.join(loop.FLAGS)}`"
+        return cls(loop, binary, inputs, note)
+
+    def run(self, threads: int) -> float:
+        return self.loop.run(self.binary, self.inputs[threads])
+
+
+def reference_input(loop: ModuleType, path: Path, plan: Plan, threads: int) -> Path:
+    """The reference loop's input: the seed's dam break at plan.particles (its
+    lattice, mass, h, k, rho0, eta, g and dt), plan.warmup + plan.steps steps."""
+    from .scene import load_scene
+
+    scene = load_scene(dam_break_scene(plan.particles, "seed"))
+    positions, velocities = scene.lattice_points()
+    mass = (scene.particle_mass if scene.particle_mass is not None
+            else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
+                                            scene.smoothing_length))
+    return loop.write_input(path, positions, velocities, mass=mass,
+                            h=scene.smoothing_length, k=scene.gas_constant,
+                            rho0=scene.rest_density, eta=scene.viscosity,
+                            gx=scene.gravity[0], gy=scene.gravity[1], tank=GEOMETRY.tank,
+                            dt=scene.time_step, warmup=plan.warmup, steps=plan.steps,
+                            threads=threads)
+
+
+def reference_lines(plan: Plan, runs: dict, ref_runs: dict, compiled: str) -> str:
+    """Our speed as a multiple of the reference loop's, per thread count: the median
+    over the rounds of each round's ratio, so that the machine's speed cancels."""
+    lines = [
+        ("Reference loop (`benchmarks/reference_loop.cpp`, built with " + compiled + "): "
+         "the seed's density, pressure and viscosity forces and semi-implicit Euler over a "
+         "cell list rebuilt every step, scalar C++17 with one OpenMP loop per pass, the "
+         "walls by reflection instead of ghosts; on the same particles, dt and steps, run "
+         "in each round after ours. Ours ÷ reference: the median over the rounds of each "
+         "round's ratio of steps/s."),
+        "",
+    ]
+    for t, ref in ref_runs.items():
+        ratios = ", ".join(
+            f"{pairs_label(median_run(runs[(p, t)]))} "
+            f"{statistics.median(r['steps_per_s'] / f for r, f in zip(runs[(p, t)], ref)):.2f}"
+            for p in plan.precisions)
+        lines.append(f"- {t} thread{'s' if t > 1 else ''}: reference "
+                     f"{statistics.median(ref):,.0f} steps/s ({min(ref):,.0f}–{max(ref):,.0f}); "
+                     f"ours ÷ reference: {ratios}")
+    return "\n".join(lines) + "\n"

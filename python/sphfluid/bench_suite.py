@@ -1,7 +1,8 @@
 """`sphfluid bench --suite`: the dam break from ~1k to ~1M particles and the bare
 loop (no walls, no viscosity, no tension), each on 1 and 2 threads, for every
-method; time to solution of 1.0 s of the dam break against its front error; the
-peers (PySPH, SPlisHSPlasH) when installed. Writes the tables and a log-log plot
+method; time to solution of 1.0 s of the dam break against its front error; with
+--peers, every configuration of the peers (PySPH, SPlisHSPlasH) that are installed,
+run by benchmarks/peers/ of a source checkout. Writes the tables and a log-log plot
 of time per step against N.
 
 Every timed configuration runs in a fresh child process, so its peak memory is
@@ -24,7 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import VARIANTS, front_error, machine, thread_label, variant_scene
+from .bench import (
+    VARIANTS,
+    BenchmarksNotFoundError,
+    benchmarks_dir,
+    front_error,
+    load_benchmark,
+    machine,
+    thread_label,
+    variant_scene,
+    write_section,
+)
 
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
@@ -140,33 +151,73 @@ def time_to_solution(method: str, n_target: int, threads: int, end: float = 1.0)
             "shifted": best_shift_front_error(times, fronts, 1.0, max_z=4.0)}
 
 
-def run_peers(n_target: int, end: float, ours: list[dict], log) -> list[str]:
-    """The established codes on the same dam break (same spacing, end time and 2
-    threads), when installed (docs/peers.md); a Markdown table beside ours."""
-    from . import peers
+def _ours_no_worse(ours: list[dict], error: float) -> dict | None:
+    """Our quickest time-to-solution run (any method, any size) whose front error is
+    no worse than `error`."""
+    good = [m for m in ours if math.isfinite(error) and m["error"] <= error]
+    return min(good, key=lambda m: m["wall"]) if good else None
 
+
+def _versus(ours: list[dict], r) -> str:
+    best = _ours_no_worse(ours, r.front_error)
+    if best is None:
+        return "none"
+    return (f"{best['wall']:.2f} ({best['method']}, {best['particles']:,} particles; "
+            f"{r.wall_s / best['wall']:.0f}x faster)")
+
+
+def _peer_row(r, ours: list[dict]) -> str:
+    return (f"| {r.name} {r.version} | {r.configuration} | {r.method} | {r.particles:,} | "
+            f"{r.steps:,} | {r.wall_s:.1f} | {r.particle_steps_per_s / 1e6:.2f} M | "
+            f"{r.front_error:.3f} | {_versus(ours, r)} | "
+            f"{('crashed: ' + r.crashed + '; ') if r.crashed else ''}{r.note} |")
+
+
+def fastest_configurations(results: list, ours: list[dict]) -> list[str]:
+    """A line per peer: its fastest configuration among those that reached the end
+    with a front error, and our fastest run to a front error no worse."""
+    lines = []
+    for name in dict.fromkeys(r.name for r in results):
+        done = [r for r in results if r.name == name and not r.crashed
+                and math.isfinite(r.front_error)]
+        if not done:
+            lines.append(f"- {name}: no configuration reached the end time.")
+            continue
+        r = min(done, key=lambda r: r.wall_s)
+        lines.append(f"- {name}: `{r.configuration}`, {r.wall_s:.1f} s at front error "
+                     f"{r.front_error:.3f}; ours to a front error no worse: {_versus(ours, r)}.")
+    return lines
+
+
+def run_peers(peers, n_target: int, end: float, ours: list[dict], log) -> list[str]:
+    """The established codes on the same dam break (same spacing, end time and 2
+    threads), every configuration of each one installed (docs/peers.md); a Markdown
+    table beside ours, and each peer's fastest configuration. `peers` is the
+    harness, benchmarks/peers/peers.py (load_peers)."""
     spacing = math.sqrt(2.0 / n_target)  # as dam_break_scene
     mine = [r for r in ours if abs(r["particles"] - n_target) < 0.2 * n_target]
-    lines = [("| code | method | particles | steps | wall s | particle-steps/s | front error, "
-             "no shift | our fastest to a front error no worse: wall s (ratio) | note |"),
-             "|---|---|---:|---:|---:|---:|---:|---|---|"]
+    lines = [("| code | configuration | method | particles | steps | wall s | particle-steps/s "
+              "| front error, no shift | our fastest to a front error no worse: wall s (ratio) "
+              "| note |"),
+             "|---|---|---|---:|---:|---:|---:|---:|---|---|"]
+    results = []
     for name, reason in peers.available().items():
         if reason:
-            lines.append(f"| {name} | | | | | | | | skipped: {reason} |")
+            lines.append(f"| {name} | | | | | | | | | skipped: {reason} |")
             log(f"peer {name}: skipped ({reason})")
             continue
-        r = peers.run_peer(name, spacing=spacing, end_time=end, threads=2)
-        log(f"peer {name}: {r.particles:,} particles, {r.steps:,} steps, {r.wall_s:.1f} s, "
-            f"front error {r.front_error:.3f}{', crashed: ' + r.crashed if r.crashed else ''}")
-        # Our quickest run (any method, any size) whose front is at least as good.
-        good = [m for m in ours if math.isfinite(r.front_error) and m["error"] <= r.front_error]
-        best = min(good, key=lambda m: m["wall"]) if good else None
-        versus = (f"{best['wall']:.2f} ({best['method']}, {best['particles']:,} particles; "
-                  f"{r.wall_s / best['wall']:.0f}x faster)" if best else "none")
-        lines.append(
-            f"| {r.name} {r.version} | {r.method} | {r.particles:,} | {r.steps:,} | "
-            f"{r.wall_s:.1f} | {r.particle_steps_per_s / 1e6:.2f} M | {r.front_error:.3f} | "
-            f"{versus} | {('crashed: ' + r.crashed + '; ') if r.crashed else ''}{r.note} |")
+        for configuration in peers.configurations(name):
+            r = peers.run_peer(name, spacing=spacing, end_time=end, threads=2,
+                               configuration=configuration)
+            log(f"peer {name} {configuration}: {r.particles:,} particles, {r.steps:,} steps, "
+                f"{r.wall_s:.1f} s, front error {r.front_error:.3f}"
+                f"{', crashed: ' + r.crashed if r.crashed else ''}")
+            results.append(r)
+            lines.append(_peer_row(r, ours))
+    if results:
+        lines += ["", "Each peer's fastest configuration that reached the end time, and our "
+                  "fastest run to a front error no worse:", "",
+                  *fastest_configurations(results, ours)]
     if mine:
         lines += ["", "Ours at the same particle count: " + "; ".join(
             f"{m['method']} {m['wall']:.2f} s, {m['particles'] * m['steps'] / m['wall'] / 1e6:.2f} "
@@ -250,17 +301,19 @@ def phase_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main(args) -> int:
-    from . import _core
+def load_peers(explicit: Path | None = None):
+    """The peer harness, benchmarks/peers/peers.py of a source checkout (benchmarks_dir)."""
+    return load_benchmark(benchmarks_dir(explicit), "peers/peers.py")
 
-    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(SIZES)
-    methods = [args.method] if args.method_given else list(VARIANTS)
 
-    def log(line: str) -> None:
-        print(line, file=sys.stderr, flush=True)
+def _log(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
-    start = time.perf_counter()
-    repeat = max(1, args.repeat)
+
+def run_throughput(methods: list[str], sizes: list[int], repeat: int, log=_log) -> list[dict]:
+    """The scaling table's runs: the dam break at every size and the bare loop up to
+    100k, on 1 and 2 threads, each in a child process, `repeat` times in rounds; the
+    median run of each configuration."""
     configs = [(method, kind, n, threads) for method in methods for kind in ("dam", "bare")
                for n in (sizes if kind == "dam" else [s for s in sizes if s <= 100_000])
                for threads in (1, 2)]
@@ -279,32 +332,46 @@ def main(args) -> int:
                 f"{r['steps_per_s']:9.1f} steps/s {r['ns_per_ps']:7.1f} ns/particle-step "
                 f"{r['bytes_per_particle']:5.0f} B/particle" if "wall" in r
                 else f"failed: {r['error']}"))
-    rows = [median_of(runs[c]) for c in configs]
-    tts_configs = [(method, int(n)) for method in methods
-                   for n in (args.tts_sizes or "1000,3000,10000").split(",")]
-    tts_runs: dict[tuple, list[dict]] = {c: [] for c in tts_configs}
+    return [median_of(runs[c]) for c in configs]
+
+
+def run_times_to_solution(methods: list[str], sizes: list[int], repeat: int,
+                          log=_log) -> list[dict]:
+    """1.0 s of the dam break on 2 threads for every method and size, `repeat` times
+    in rounds; the run of median wall time of each."""
+    configs = [(method, n) for method in methods for n in sizes]
+    runs: dict[tuple, list[dict]] = {c: [] for c in configs}
     for round_ in range(1, repeat + 1):
-        for method, n in tts_configs:
+        for method, n in configs:
             r = time_to_solution(method, n, 2)
-            tts_runs[(method, n)].append(r)
+            runs[(method, n)].append(r)
             log(f"[{round_}/{repeat}] time to solution {method} {r['particles']:,}: "
                 f"{r['wall']:.2f} s, {r['steps']:,} steps, front error {r['error']:.3f}")
-    tts = [median_of(tts_runs[c], key="wall", higher_is_faster=False) for c in tts_configs]
+    return [median_of(runs[c], key="wall", higher_is_faster=False) for c in configs]
 
+
+def tts_table(tts: list[dict]) -> list[str]:
+    lines = [("| method | particles | steps | wall s (2 threads) | range | front error, "
+              "no shift | best shift: error (shift) |"), "|---|---:|---:|---:|---|---:|---|"]
+    for r in tts:
+        s, e = r["shifted"]
+        lo, hi = r["range"]
+        lines.append(f"| {r['method']} | {r['particles']:,} | {r['steps']:,} | "
+                     f"{r['wall']:.2f} | {lo:.2f}–{hi:.2f} | {r['error']:.3f} | "
+                     f"{e:.3f} ({s:.2f}) |")
+    return lines
+
+
+def suite_report(args, rows: list[dict], tts: list[dict], repeat: int, start: float) -> str:
+    """The suite's section of BENCHMARKS.md: the tables, and the plot (drawn here,
+    into args.out) when matplotlib is installed."""
+    from . import _core
 
     info = _core.build_info
     png = args.out / "bench_scaling.png"
     drew = scaling_plot(rows, png)
     rel = os.path.relpath(png, args.write.parent if args.write else Path("."))
-    tts_lines = [("| method | particles | steps | wall s (2 threads) | range | front error, "
-                  "no shift | best shift: error (shift) |"), "|---|---:|---:|---:|---|---:|---|"]
-    for r in tts:
-        s, e = r["shifted"]
-        lo, hi = r["range"]
-        tts_lines.append(f"| {r['method']} | {r['particles']:,} | {r['steps']:,} | "
-                         f"{r['wall']:.2f} | {lo:.2f}–{hi:.2f} | {r['error']:.3f} | "
-                         f"{e:.3f} ({s:.2f}) |")
-    text = "\n".join([
+    return "\n".join([
         f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, -march=native "
         f"{'on' if info['march_native'] else 'off'}, OpenMP {info['openmp']}, {info['real']}. "
         f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
@@ -335,31 +402,51 @@ def main(args) -> int:
         "front error is the mean |dZ| against Martin & Moyce's Table 2 over T < 3.2 "
         "(the front reaches the far wall), the peers' 0.25-0.31 being the mark to meet."),
         "",
-        *tts_lines,
+        *tts_table(tts),
         "",
         ("The established codes on the same dam break: `sphfluid bench --suite --peers` "
          "(the next section, kept when the suite runs without them)."),
         "",
         *([f"![time per step against N]({rel})", ""] if drew else []),
     ])
+
+
+def peers_report(peers, tts: list[dict], log=_log) -> str:
+    """The peers' section of BENCHMARKS.md: every configuration of the installed
+    peers on the 10k dam break, beside our time-to-solution runs."""
+    return "\n".join([
+        (f"Machine: {machine()}. Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid "
+         "bench --suite --peers`, in the environment of docs/peers.md. The dam break at "
+         "~10,000 particles, 1.0 s, 2 threads, each code in its own process; our rows "
+         "are the time-to-solution runs of the same command."),
+        "",
+        *run_peers(peers, 10_000, 1.0, tts, log),
+        ""])
+
+
+def main(args) -> int:
+    peers = None
+    if args.peers:  # before the long run: a wheel has no peer drivers
+        try:
+            peers = load_peers(args.benchmarks_dir)
+        except BenchmarksNotFoundError as e:
+            print(f"error: --peers: {e}", file=sys.stderr)
+            return 2
+    sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(SIZES)
+    tts_sizes = [int(n) for n in (args.tts_sizes or "1000,3000,10000").split(",")]
+    methods = [args.method] if args.method_given else list(VARIANTS)
+    start = time.perf_counter()
+    repeat = max(1, args.repeat)
+    rows = run_throughput(methods, sizes, repeat)
+    tts = run_times_to_solution(methods, tts_sizes, repeat)
+    text = suite_report(args, rows, tts, repeat, start)
     print(text)
     if args.write:
-        from .bench import write_section
-
         write_section(args.write, text, tag="bench suite")
-        log(f"wrote {args.write}")
-    if args.peers:
-        peer_text = "\n".join([
-            (f"Machine: {machine()}. Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid "
-             "bench --suite --peers`, in the environment of docs/peers.md. The dam break at "
-             "~10,000 particles, 1.0 s, 2 threads, each code in its own process; our rows "
-             "are the time-to-solution runs of the same command."),
-            "",
-            *run_peers(10_000, 1.0, tts, log),
-            ""])
+        _log(f"wrote {args.write}")
+    if peers is not None:
+        peer_text = peers_report(peers, tts)
         print(peer_text)
         if args.write:
-            from .bench import write_section
-
             write_section(args.write, peer_text, tag="bench peers")
     return 0

@@ -133,6 +133,10 @@ def _add_bench(sub) -> None:
     b.add_argument("--peers", action="store_true",
                    help="--suite: also run PySPH and SPlisHSPlasH on the same dam break "
                         "when installed (docs/peers.md)")
+    b.add_argument("--benchmarks-dir", type=Path, metavar="DIR",
+                   help="the repository's benchmarks/ folder: the peer drivers (--peers) and "
+                        "the reference loop (default: $SPHFLUID_BENCHMARKS, else the one "
+                        "beside a source checkout's package)")
 
 
 def _add_stress(sub) -> None:

@@ -14,6 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..dam_break import GEOMETRY
 from ..scene import load_scene
 from ..simulation import InstabilityError, Simulation
 from . import reference as ref
@@ -268,22 +269,19 @@ class DamBreak(Case):
     name = "dam_break"
     title = "Dam break (Martin & Moyce 1952)"
     error_name = "mean |dZ| of the front, no time shift"
-    a = 1.0
-    tank = 4.0
+    a = GEOMETRY.a
+    tank = GEOMETRY.tank
     duration = 0.72  # T = t sqrt(2g/a) = 3.19: the front is at the far wall
     resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40, 80)}
 
     def scene(self, n, method):
-        a, L = self.a, self.tank
         if method == "seed":  # the bundled dam-break scene's fluid
-            fluid = {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0}
+            fluid = {"gas_constant": 250.0, "viscosity": 30.0}
         else:
-            fluid = {"rest_density": 1000.0}
-        return _scene("validation: dam break", method=method, dx=self.spacing(n),
-                      box=((-0.1, -0.1), (L + 0.1, 3.6)), fluid=fluid,
-                      regions=[_rect(0.0, 0.0, a, 2 * a)],
-                      walls=[{"polyline": [[0.0, 3.0], [0.0, 0.0], [L, 0.0], [L, 3.0]]}],
-                      duration=self.duration)
+            fluid = {}
+        return GEOMETRY.scene(self.spacing(n), name="validation: dam break", fluid=fluid,
+                              solver={"method": method, "time_step": "auto", "cfl": 0.4},
+                              duration=self.duration)
 
     def sample_times(self):
         return np.linspace(0.0, self.duration, 73)[1:]

@@ -19,7 +19,7 @@
 // against a sum over a full neighbour list, in double and in float.
 // BENCHMARKS.md, "What was tried" and "Roofline", quotes its output.
 //
-//   g++ -O3 -march=native -fno-math-errno tests/benchmarks/pair_loop.cpp -o /tmp/pair_loop
+//   g++ -O3 -march=native -fno-math-errno benchmarks/experiments/pair_loop.cpp -o /tmp/pair_loop
 //   /tmp/pair_loop
 #include <immintrin.h>
 

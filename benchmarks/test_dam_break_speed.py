@@ -1,6 +1,6 @@
 """Timing of the dam break at a geometric range of N (marker `bench`, off by default).
 
-Run with `pytest -m bench -s tests/benchmarks`. Prints particle-steps/s next to
+Run with `pytest -m bench -s benchmarks`. Prints particle-steps/s next to
 the front position against Martin & Moyce; asserts nothing about speed (this
 machine is shared and noisy: compare ratios within one run).
 """

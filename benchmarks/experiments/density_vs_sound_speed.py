@@ -3,7 +3,7 @@ step to t = 1 s (compression only, rho > rho0), where and when, and how many
 steps have some particle over 1 %. STABILITY.md, "Density error and the speed of
 sound", quotes its output.
 
-    python tests/benchmarks/density_vs_sound_speed.py 3000 10,20,30,40
+    python benchmarks/experiments/density_vs_sound_speed.py 3000 10,20,30,40
 """
 from __future__ import annotations
 

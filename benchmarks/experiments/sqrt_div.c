@@ -2,7 +2,7 @@
  * the core of every SPH pair force (|r| and r/|r|): a bound on how fast a
  * scalar pair loop can go on this machine (BENCHMARKS.md, "Roofline").
  *
- *   gcc -O2 -fno-tree-vectorize tests/benchmarks/sqrt_div.c -o /tmp/sqrt_div -lm && /tmp/sqrt_div
+ *   gcc -O2 -fno-tree-vectorize benchmarks/experiments/sqrt_div.c -o /tmp/sqrt_div -lm && /tmp/sqrt_div
  */
 #include <math.h>
 #include <stdio.h>

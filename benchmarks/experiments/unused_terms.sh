@@ -6,7 +6,7 @@
 # unlike wall time on a shared machine). Both builds are baseline x86-64
 # (SPHFLUID_NATIVE=OFF): valgrind 3.19 cannot run AVX-512 code.
 #
-#   bash tests/benchmarks/unused_terms.sh          # about 5 minutes on 2 cores
+#   bash benchmarks/experiments/unused_terms.sh          # about 5 minutes on 2 cores
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
 work="$(mktemp -d)"
