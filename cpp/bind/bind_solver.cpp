@@ -1,5 +1,6 @@
-// Bindings of SimParams and Solver: construction from numpy arrays, stepping
-// with the GIL released, read-only views of the particle fields.
+// Bindings of the Solver: construction from numpy arrays, stepping with the
+// GIL released, editing, diagnostics, and read-only views of the particle
+// fields. Each group of methods is a function; bind_solver() calls them.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -13,8 +14,7 @@ using bind::InArray;
 
 namespace {
 
-Vec2 pair_to_vec(const std::array<double, 2>& a) { return Vec2(a[0], a[1]); }
-std::array<double, 2> vec_to_pair(const Vec2& v) { return {v.x(), v.y()}; }
+using SolverClass = py::class_<Solver>;
 
 std::vector<Id> to_ids(const py::object& ids) {
   if (ids.is_none()) return {};
@@ -23,84 +23,9 @@ std::vector<Id> to_ids(const py::object& ids) {
   return std::vector<Id>(a.data(), a.data() + a.size());
 }
 
-}  // namespace
-
-void bind_solver(py::module_& m) {
-  py::register_exception<InstabilityError>(m, "InstabilityError", PyExc_RuntimeError);
-
-  py::enum_<Method>(m, "Method", "The SPH method of a run")
-      .value("seed", Method::kSeed)
-      .value("wcsph", Method::kWcsph);
-
-  py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
-      .def(py::init<>())
-      .def_readwrite("method", &SimParams::method, "seed (SPEC.md) or wcsph")
-      .def_readwrite("c0", &SimParams::c0, "wcsph: speed of sound, m/s")
-      .def_readwrite("alpha", &SimParams::alpha, "wcsph: artificial viscosity coefficient")
-      .def_readwrite("background_pressure", &SimParams::background_pressure,
-                     "wcsph: pressure added to the Tait EOS (sum clamped at 0), Pa")
-      .def_readwrite("spacing", &SimParams::spacing,
-                     "wcsph: lattice spacing the walls mirror, m (0: a continuum)")
-      .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
-      .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
-      .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")
-      .def_readwrite("k", &SimParams::k, "gas constant of p = k (rho - rho0), m^2/s^2")
-      .def_readwrite("eta", &SimParams::eta, "dynamic viscosity, Pa s")
-      .def_readwrite("sigma", &SimParams::sigma, "surface tension coefficient, N")
-      .def_property(
-          "gravity", [](const SimParams& p) { return vec_to_pair(p.gravity); },
-          [](SimParams& p, const std::array<double, 2>& g) { p.gravity = pair_to_vec(g); },
-          "body acceleration [gx, gy], m/s^2")
-      .def_property(
-          "domain_min", [](const SimParams& p) { return vec_to_pair(p.domain_min); },
-          [](SimParams& p, const std::array<double, 2>& g) { p.domain_min = pair_to_vec(g); },
-          "lower corner of the domain, m")
-      .def_property(
-          "domain_max", [](const SimParams& p) { return vec_to_pair(p.domain_max); },
-          [](SimParams& p, const std::array<double, 2>& g) { p.domain_max = pair_to_vec(g); },
-          "upper corner of the domain, m")
-      .def_property(
-          "periodic",
-          [](const SimParams& p) { return std::array<bool, 2>{p.periodic_x, p.periodic_y}; },
-          [](SimParams& p, const std::array<bool, 2>& a) {
-            p.periodic_x = a[0];
-            p.periodic_y = a[1];
-          },
-          "periodic axes [x, y]: the domain wraps along them")
-      .def_readwrite("surface_threshold", &SimParams::surface_threshold,
-                     "|grad c| above which surface tension acts, 1/m (< 0: 0.323 / h)")
-      .def_property_readonly("effective_surface_threshold",
-                             &SimParams::effective_surface_threshold,
-                             "the threshold in use, 1/m")
-      .def_readwrite("ghost_mass_ratio", &SimParams::ghost_mass_ratio,
-                     "wall ghost mass / particle mass")
-      .def_readwrite("ghost_density_ratio", &SimParams::ghost_density_ratio,
-                     "wall ghost density / rest density")
-      .def_readwrite("restitution", &SimParams::restitution,
-                     "normal restitution of the wall reflection, in [0, 1]")
-      .def_readwrite("threads", &SimParams::threads, "OpenMP threads (0: OpenMP default)")
-      .def_readwrite("float_pairs", &SimParams::float_pairs,
-                     "the seed's pair forces in single precision where the cell clusters run")
-      .def_readwrite("cfl", &SimParams::cfl, "CFL factor of the adaptive time step")
-      .def_readwrite("dt_max", &SimParams::dt_max, "cap on the adaptive time step, s (0: none)")
-      .def_readwrite("surface_length", &SimParams::surface_length,
-                     "initial free-surface length, m, for the guard's surface-energy bound")
-      .def_readwrite("guard", &SimParams::guard,
-                     "check density, speed and energy after every step (non-finite values "
-                     "are always caught)")
-      .def_readwrite("guard_density_ratio", &SimParams::guard_density_ratio,
-                     "guard: trip when rho > ratio * rho0")
-      .def_readwrite("guard_speed_factor", &SimParams::guard_speed_factor,
-                     "guard: trip when |v| > factor * speed of sound")
-      .def_readwrite("guard_energy_factor", &SimParams::guard_energy_factor,
-                     "guard: trip when kinetic energy > factor * energy budget")
-      .def_readwrite("max_retries", &SimParams::max_retries,
-                     "on a trip, retry the step with dt/2, dt/4, ... this many times")
-      .def_property_readonly("sound_speed", &SimParams::sound_speed,
-                             "speed of sound of the method's EOS, m/s");
-
-  py::class_<Solver>(m, "Solver", "The seed SPH method on a set of particles and walls.")
-      .def(py::init([](const SimParams& p, const InArray& x, const InArray& v, const InArray& walls,
+// Making a solver.
+void def_construction(SolverClass& c) {
+  c.def(py::init([](const SimParams& p, const InArray& x, const InArray& v, const InArray& walls,
                        const py::object& ids) {
              return new Solver(p, bind::to_vec2(x, "positions"), bind::to_vec2(v, "velocities"),
                                to_ids(ids), bind::to_segments(walls));
@@ -108,8 +33,12 @@ void bind_solver(py::module_& m) {
            py::arg("params"), py::arg("positions"), py::arg("velocities"), py::arg("walls"),
            py::arg("ids") = py::none(),
            "Solver(params, positions (n, 2), velocities (n, 2), walls (s, 2, 2), ids=None).\n"
-           "Particles outside the domain are removed (and counted) at once.")
-      .def("step", &Solver::step, py::arg("dt"), py::arg("n") = 1,
+           "Particles outside the domain are removed (and counted) at once.");
+}
+
+// Advancing, and what the steps did.
+void def_stepping(SolverClass& c) {
+  c.def("step", &Solver::step, py::arg("dt"), py::arg("n") = 1,
            py::call_guard<py::gil_scoped_release>(),
            "Advance n steps of size dt (GIL released). Raises InstabilityError on blow-up.")
       .def("step_adaptive", &Solver::step_adaptive, py::arg("n") = 1,
@@ -136,8 +65,12 @@ void bind_solver(py::module_& m) {
       .def_property_readonly(
           "last_dt_limit", [](const Solver& s) { return std::string(limit_name(s.last_limit())); },
           "what limited the last step: fixed, cfl, force, viscous or dt_max (a step shortened "
-          "to land on an end time keeps that label)")
-      .def("compute_forces", &Solver::compute_forces, py::call_guard<py::gil_scoped_release>(),
+          "to land on an end time keeps that label)");
+}
+
+// Evaluating and editing the state.
+void def_editing(SolverClass& c) {
+  c.def("compute_forces", &Solver::compute_forces, py::call_guard<py::gil_scoped_release>(),
            "Density, pressure and acceleration for the current state; nothing moves.")
       .def(
           "set_state",
@@ -162,8 +95,12 @@ void bind_solver(py::module_& m) {
           "Append particles (n, 2) with fresh ids; those outside the domain are removed.")
       .def(
           "set_walls", [](Solver& s, const InArray& walls) { s.set_walls(bind::to_segments(walls)); },
-          py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.")
-      .def_property("threads", &Solver::threads, &Solver::set_threads,
+          py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.");
+}
+
+// Threads and the code paths that run.
+void def_threads(SolverClass& c) {
+  c.def_property("threads", &Solver::threads, &Solver::set_threads,
                     "OpenMP threads the step may use (0: OpenMP default)")
       .def_property_readonly("float_pairs", &Solver::float_pairs,
                              "whether the pair forces run in single precision: asked for "
@@ -184,8 +121,12 @@ void bind_solver(py::module_& m) {
             return d;
           },
           "Wall-clock seconds spent in each phase of the step since the last reset")
-      .def("reset_phase_seconds", &Solver::reset_phase_seconds)
-      .def_property_readonly("params", &Solver::params)
+      .def("reset_phase_seconds", &Solver::reset_phase_seconds);
+}
+
+// The run's counts and measurements.
+void def_diagnostics(SolverClass& c) {
+  c.def_property_readonly("params", &Solver::params)
       .def_property_readonly("n_particles", &Solver::size)
       .def_property_readonly("time", &Solver::time, "simulated time, s")
       .def_property_readonly("step_count", &Solver::step_count)
@@ -216,8 +157,12 @@ void bind_solver(py::module_& m) {
           "the few that did were moved into place (moved; moved_in_parts of them by the "
           "threads, each its own range), or all were permuted")
       .def_property_readonly("neighbour_pairs", &Solver::neighbour_pairs,
-                             "stored neighbour pairs (i, j != i) of the last evaluation")
-      .def_property_readonly(
+                             "stored neighbour pairs (i, j != i) of the last evaluation");
+}
+
+// Read-only views of the particle fields, and the walls.
+void def_arrays(SolverClass& c) {
+  c.def_property_readonly(
           "positions", [](const Solver& s) { return bind::view<Vec2, 2>(s.particles().x); },
           "(n, 2) read-only view, m")
       .def_property_readonly(
@@ -250,4 +195,17 @@ void bind_solver(py::module_& m) {
             return out;
           },
           "(s, 2, 2) copy of the wall segments, m");
+}
+
+}  // namespace
+
+void bind_solver(py::module_& m) {
+  py::register_exception<InstabilityError>(m, "InstabilityError", PyExc_RuntimeError);
+  SolverClass c(m, "Solver", "The seed SPH method on a set of particles and walls.");
+  def_construction(c);
+  def_stepping(c);
+  def_editing(c);
+  def_threads(c);
+  def_diagnostics(c);
+  def_arrays(c);
 }

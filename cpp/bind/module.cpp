@@ -5,6 +5,7 @@
 
 namespace py = pybind11;
 
+void bind_params(py::module_& m);
 void bind_solver(py::module_& m);
 void bind_kernels(py::module_& m);
 void bind_walls(py::module_& m);
@@ -32,6 +33,7 @@ PYBIND11_MODULE(_core, m) {
 #endif
   info["real"] = sizeof(sphfluid::Real) == 8 ? "double" : "float";
   m.attr("build_info") = info;
+  bind_params(m);
   bind_solver(m);
   py::module_ k = m.def_submodule("kernels", "2D SPH kernels, vectorised, for tests");
   bind_kernels(k);

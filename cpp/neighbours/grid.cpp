@@ -334,20 +334,8 @@ void CellGrid::plan_moves(Index n, int parts) {
   });
   Index next = 0, out = 0;  // the next input place, the next output place
   Index last_in = -1;       // the largest input place of the movers put in so far
-  cut_at_.assign(static_cast<std::size_t>(parts) + 1, 0);
-  cut_at_[parts] = n;
-  for (int t = 1; t < parts; ++t) {
-    const Index goal = share_of(n, t, parts).first;
-    cut_at_[t] = goal < n - goal ? 0 : n;  // (0 and n are always places to cut at)
-  }
-  // Places [a, b] are all places to cut at.
-  auto may_cut = [&](Index a, Index b) {
-    for (int t = 1; t < parts; ++t) {
-      const Index goal = share_of(n, t, parts).first;
-      const Index c = std::clamp(goal, a, b);
-      if (std::abs(c - goal) < std::abs(cut_at_[t] - goal)) cut_at_[t] = c;
-    }
-  };
+  first_cuts(n, parts);
+  auto may_cut = [&](Index a, Index b) { offer_cuts(n, parts, a, b); };
   auto stayers_to = [&](Index e) {
     if (e > next) {
       if (out != next) moves_.push_back({next, out, e - next});
@@ -372,6 +360,27 @@ void CellGrid::plan_moves(Index n, int parts) {
   if (parts > 1 && q == r && last_in < next) may_cut(next, n);
   stayers_to(n);
   if (out != n) throw std::logic_error("resort: the moves do not place every particle");
+}
+
+// cut_at_ before any place is offered: each thread's cut at the nearer of 0
+// and n (always places to cut at).
+void CellGrid::first_cuts(Index n, int parts) {
+  cut_at_.assign(static_cast<std::size_t>(parts) + 1, 0);
+  cut_at_[parts] = n;
+  for (int t = 1; t < parts; ++t) {
+    const Index goal = share_of(n, t, parts).first;
+    cut_at_[t] = goal < n - goal ? 0 : n;
+  }
+}
+
+// Places [a, b] are all places to cut at: each thread's cut moves to the one
+// nearest its even share, if nearer than its cut so far.
+void CellGrid::offer_cuts(Index n, int parts, Index a, Index b) {
+  for (int t = 1; t < parts; ++t) {
+    const Index goal = share_of(n, t, parts).first;
+    const Index c = std::clamp(goal, a, b);
+    if (std::abs(c - goal) < std::abs(cut_at_[t] - goal)) cut_at_[t] = c;
+  }
 }
 
 // start[c] counts the particles in cells below c: each mover changes it

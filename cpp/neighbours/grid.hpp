@@ -167,6 +167,8 @@ class CellGrid {
   // may be cut into parts), the cell ranges after them, and the parts.
   bool find_movers(Index n, bool marked);
   void plan_moves(Index n, int parts);
+  void first_cuts(Index n, int parts);
+  void offer_cuts(Index n, int parts, Index a, Index b);
   void shift_cell_starts();
   void cut_parts(int parts, std::vector<Index>& scratch);
 

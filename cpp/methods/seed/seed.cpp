@@ -9,6 +9,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "integrate.hpp"
 #include "methods/seed/pairs.hpp"
 #include "neighbours/pair_loops.hpp"
 #include "simd/cpu.hpp"

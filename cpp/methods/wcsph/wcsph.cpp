@@ -10,6 +10,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "integrate.hpp"
 #include "methods/wcsph/pairs.hpp"
 #include "neighbours/frames.hpp"
 #include "neighbours/pair_loops.hpp"

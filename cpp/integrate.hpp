@@ -2,7 +2,10 @@
 // drift, the wall collision of the paths that may meet a wall (seed 4.2), the
 // guard's checks of the new state, and, where the lanes run, a look ahead for
 // the next sort (the new positions' bounding box and cells) and whether every
-// particle stayed inside the domain.
+// particle stayed inside the domain. A method's step includes this header and
+// instantiates the integration its feature set needs.
+#pragma once
+
 #include <algorithm>
 #include <limits>
 
@@ -11,6 +14,28 @@
 #include "simd/points.hpp"
 
 namespace sphfluid {
+
+#if SPHFLUID_AVX512
+namespace integration {
+
+// The lanes of `ok` whose path (from, to) may meet a wall. With the
+// particles' clearances (clear2 of the eight, else null), a path shorter than
+// its clearance meets no wall: every wall within h of it is in its lookup
+// cell (none where no wall comes near, nor off the lookup grid), and the
+// clearance is less than h / 2 and than the distance to the nearest of those
+// walls. Without them, the walls' lookup grid says.
+SPHFLUID_INLINE simd::Mask8 may_meet_wall(const WallSet& walls, simd::Mask8 ok, simd::D8 from_x,
+                                          simd::D8 from_y, simd::D8 to_x, simd::D8 to_y,
+                                          const float* clear2) {
+  if (!clear2) return walls.may_hit8(ok, from_x, from_y, to_x, to_y);
+  const simd::D8 c2 = simd::widen(simd::F8::loadu(clear2));
+  const simd::D8 dx = to_x - from_x, dy = to_y - from_y;
+  const simd::Mask8 short_path = simd::lt(0xFF, simd::fmadd(dx, dx, dy * dy), c2);
+  return ok & static_cast<simd::Mask8>(~short_path);
+}
+
+}  // namespace integration
+#endif
 
 template <bool Walls, bool Periodic>
 void Context::integrate(Real dt, Real kick) {
@@ -146,20 +171,9 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
       if constexpr (Walls) {
         const Mask8 ok = s.lanes & simd::finite(to_x) & simd::finite(to_y) & simd::finite(vx) &
                          simd::finite(vy);
-        const D8 from_x = simd::x_of(x_lo, x_hi), from_y = simd::y_of(x_lo, x_hi);
-        Mask8 may;
-        if (clear_known) {
-          // A path shorter than the particle's clearance meets no wall: every
-          // wall within h of it is in its lookup cell (none where no wall
-          // comes near, nor off the lookup grid), and the clearance is less
-          // than h / 2 and than the distance to the nearest of those walls.
-          const D8 c2 = simd::widen(simd::F8::loadu(clear2_of + i0));
-          const D8 dx = to_x - from_x, dy = to_y - from_y;
-          const Mask8 short_path = simd::lt(0xFF, simd::fmadd(dx, dx, dy * dy), c2);
-          may = ok & static_cast<Mask8>(~short_path);
-        } else {
-          may = walls.may_hit8(ok, from_x, from_y, to_x, to_y);
-        }
+        const Mask8 may = integration::may_meet_wall(walls, ok, simd::x_of(x_lo, x_hi),
+                                        simd::y_of(x_lo, x_hi), to_x, to_y,
+                                        clear_known ? clear2_of + i0 : nullptr);
         if (may) {
           for (unsigned k = 0; k < 8; ++k) {
             if (!(may >> k & 1u)) continue;
@@ -207,10 +221,5 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
 #endif
   return r;
 }
-
-template void Context::integrate<false, false>(Real, Real);
-template void Context::integrate<false, true>(Real, Real);
-template void Context::integrate<true, false>(Real, Real);
-template void Context::integrate<true, true>(Real, Real);
 
 }  // namespace sphfluid
