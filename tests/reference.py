@@ -1,6 +1,6 @@
-"""Brute-force O(N^2) NumPy evaluation of SPEC.md's seed equations, for tests.
+"""Brute-force O(N^2) NumPy evaluation of the seed's equations (docs/method-seed.md), for tests.
 
-Written from SPEC.md independently of the C++ core: every pair is evaluated,
+Written from docs/method-seed.md independently of the C++ core: every pair is evaluated,
 no cell grid, no neighbour list.
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ def separations(x, period=None):
 def seed_forces(x, v, *, h, m, rho0, k, eta=0.0, sigma=0.0, threshold=None,
                 gravity=(0.0, -9.81), ghosts=None, ghost_mass=None, ghost_density=None,
                 period=None):
-    """Density, pressure and acceleration of every particle (SPEC.md table).
+    """Density, pressure and acceleration of every particle (docs/method-seed.md).
 
     ghosts: optional list (per particle) of (g, 2) arrays of wall ghost positions.
     period: optional periodic box lengths (see separations).
@@ -101,7 +101,7 @@ def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), 
     """Density, pressure and acceleration under the wcsph method with no walls:
     summation density (Wendland C2, support h), Tait EOS clamped at rho0,
     symmetric pressure gradient, Monaghan's artificial viscosity and Morris'
-    viscosity (README, "The wcsph method")."""
+    viscosity (docs/method-wcsph.md)."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     rho = (m * wendland(np.sqrt(r2), h)).sum(1)

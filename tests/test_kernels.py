@@ -1,4 +1,4 @@
-"""The seed's 2D kernels (SPEC.md): normalisation, support, gradients, Laplacians."""
+"""The seed's 2D kernels (docs/method-seed.md): normalisation, support, gradients, Laplacians."""
 from __future__ import annotations
 
 import numpy as np
@@ -32,7 +32,7 @@ def test_kernels_vanish_outside_support(name):
 
 def test_viscosity_laplacian_second_moment():
     # sum_j V_j (v_j - v_i) lap W approximates lap v in 2D only if
-    # int r^2 lap W dA = 2 d = 4 (SPEC.md: this fixes the constant 40/(pi h^5)).
+    # int r^2 lap W dA = 2 d = 4 (docs/method-seed.md: this fixes the constant 40/(pi h^5)).
     assert radial_integral(lambda r: r**2 * kernels.lap_visc(r, H), H) == pytest.approx(4.0, rel=1e-9)
 
 
@@ -81,7 +81,7 @@ def test_spiky_gradient_is_zero_at_the_origin():
 
 
 def test_constants_match_spec():
-    # SPEC.md: poly6 4/(pi h^8) (h^2 - r^2)^3; spiky grad -30/(pi h^5) (h - r)^2;
+    # docs/method-seed.md: poly6 4/(pi h^8) (h^2 - r^2)^3; spiky grad -30/(pi h^5) (h - r)^2;
     # viscosity Laplacian 40/(pi h^5) (h - r).
     r = 0.3 * H
     assert kernels.w_poly6(np.array([r]), H)[0] == pytest.approx(4 / (np.pi * H**8) * (H**2 - r**2) ** 3)

@@ -1,4 +1,4 @@
-"""The native step against SPEC.md: brute-force equations, conservation, lattice
+"""The native step against the seed's equations (docs/method-seed.md): brute-force equations, conservation, lattice
 density, and the hydrostatic tank."""
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ def test_native_equals_brute_force_across_pair_blocks(threads, sigma):
 @pytest.mark.parametrize("threads", [1, 2])
 def test_native_equals_brute_force_with_crowded_cells(threads):
     """Cells holding many more particles than the 8 (4 for the forces) that the
-    cell-cluster loops take at once (cpp/cell_pairs.hpp), empty cells and rows
+    cell-cluster loops take at once (neighbours/cell_pairs.hpp), empty cells and rows
     between clumps, and coincident particles (r = 0: no pressure force between
     them), across several blocks of cell rows."""
     rng = np.random.default_rng(3)

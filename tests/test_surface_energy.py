@@ -1,5 +1,5 @@
 """wcsph's surface tension is minus the gradient of a surface energy sigma x
-length (cpp/surface_energy.hpp): the force matches the energy's finite
+length (docs/method-wcsph.md, W10-W12): the force matches the energy's finite
 differences, the energy is sigma times the length of a flat and of a round
 surface, and a drop keeps its particles and loses energy, never gains it."""
 from __future__ import annotations

@@ -33,7 +33,7 @@ def with_tension(d):
     d["fluid"]["surface_tension"] = 2.0
 
 
-def wcsph_with_tension(d):  # the surface energy's node sums (cpp/surface_energy.hpp)
+def wcsph_with_tension(d):  # the surface energy's node sums (docs/method-wcsph.md, W11)
     with_tension(d)
     d["solver"].update(method="wcsph", time_step="auto")
 

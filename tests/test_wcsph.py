@@ -92,7 +92,7 @@ def test_native_wcsph_equals_brute_force_across_pair_blocks(threads):
 @pytest.mark.parametrize("threads", [1, 2])
 def test_native_wcsph_equals_brute_force_with_crowded_cells(threads):
     """Cells of many more particles than the cell-cluster loops take at once
-    (cpp/cell_pairs.hpp) and coincident particles, across several blocks."""
+    (neighbours/cell_pairs.hpp) and coincident particles, across several blocks."""
     check_against_brute_force(n=2400, side=1.3, seed=10, alpha=0.3, eta=0.5, threads=threads,
                               clumps=3)
 

@@ -1,6 +1,7 @@
-// Static wall segments and the two wall mechanisms of the seed (section 4):
-// ghost particles at the clamped foot of the perpendicular (4.1) and the repeated
-// reflection of a particle's path within one step (4.2). Pure geometry: no SPH here.
+// Static wall segments and the two wall mechanisms of the seed (section 4 of
+// the paper, docs/method-seed.md "Walls"): ghost particles at the clamped foot
+// of the perpendicular (4.1) and the repeated reflection of a particle's path
+// within one step (4.2). Pure geometry: no SPH here.
 #pragma once
 
 #include <algorithm>

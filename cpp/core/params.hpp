@@ -47,7 +47,7 @@ struct SimParams {
   Real surface_threshold = -1.0;  // 1/m
 
   // Wall ghost particle (seed 4.1): mass and density relative to the fluid's
-  // particle mass and rest density. See README "Choices the paper leaves open".
+  // particle mass and rest density. See docs/method-seed.md, "Choices the paper leaves open".
   Real ghost_mass_ratio = 1.0;
   Real ghost_density_ratio = 1.0;
 
@@ -58,7 +58,7 @@ struct SimParams {
 
   // The seed's pair forces (pressure, viscosity) summed in single precision
   // where the cell clusters run (cell_pairs.hpp, SeedFloats); everything else
-  // stays in double. README, "Precision".
+  // stays in double. docs/method-seed.md, "Pair forces in single precision".
   bool float_pairs = false;
 
   // Adaptive time step: each step takes the largest dt that satisfies

@@ -274,7 +274,7 @@ def table(rows: list[dict], command: str) -> str:
         phases = " | ".join(f"{v:.0f}" for v in r["phases_us"].values())
         lines.append(f"| {thread_label(r)} | {pairs_label(r)} | {phases} |")
     lines += ["", "Speed-up: against the first row. Pairs: the precision of the seed's pair "
-              "forces (`solver.pair_precision`; README, \"Precision\"). Phases: where the "
+              "forces (`solver.pair_precision`; docs/method-seed.md, \"Pair forces in single precision\"). Phases: where the "
               "seed's pairs run by cell clusters with walls, the ghosts column holds the walls' "
               "share of the density and the equation of state too (found in one parallel "
               "region), and density is empty."]

@@ -385,7 +385,7 @@ def suite_report(args, rows: list[dict], tts: list[dict], repeat: int, start: fl
         f"about 330), each configuration in a fresh process, {repeat} time(s) in rounds over "
         "all of them; the median run is reported, with the range of steps/s (time to "
         "solution: of wall time). seed-float: the seed with its "
-        "pair forces in float (solver.pair_precision; README, \"Precision\"). \"2 (1 in use)\": "
+        "pair forces in float (solver.pair_precision; docs/method-seed.md, \"Pair forces in single precision\"). \"2 (1 in use)\": "
         "below 1,000 "
         "particles the step runs on one thread whatever is asked. Bytes per particle: the "
         "solver's arrays (capacity included), and in brackets the process's peak resident "

@@ -34,7 +34,7 @@ DEFAULT_SURFACE_THRESHOLD_TIMES_H = 0.323
 
 # Limits that keep a scene within this machine's means.
 MAX_DOMAIN_CELLS = 50_000_000  # cells of size h over the domain (cell grid bound)
-# wcsph's surface energy (cpp/surface_energy.hpp): its smallest h over dx, and
+# wcsph's surface energy (docs/method-wcsph.md, eqs. W10-W12): its smallest h over dx, and
 # the most nodes (16 bytes each) its lattice over the domain may need.
 MIN_TENSION_SMOOTHING = 1.5
 MAX_TENSION_NODES = 50_000_000
@@ -624,7 +624,7 @@ class _Validator:
                           f"least 2 smoothing lengths ({2 * h:g} m) {extent}, got "
                           f"{length:g} m")
             elif method == "wcsph" and sigma and dx and length < 4 * h + dx / 2:
-                # cpp/surface_energy.hpp: the colour field's support is 2 h
+                # docs/method-wcsph.md (W10): the colour field's support is 2 h
                 self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
                           f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
                           f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
@@ -635,13 +635,13 @@ class _Validator:
         lo, hi, h, dx = domain.lo, domain.hi, res.h, res.dx
         if not (method == "wcsph" and sigma and dx and h):
             return
-        # cpp/surface_energy.hpp: the surface energy is summed on nodes dx/2
+        # docs/method-wcsph.md (W11): the surface energy is summed on nodes dx/2
         # apart over the fluid's bounding box, with a colour kernel of support 2 h.
         if h < MIN_TENSION_SMOOTHING * dx:
             self.fail("resolution.smoothing_length", f"with surface tension, wcsph needs "
                       f"h of at least {MIN_TENSION_SMOOTHING:g} spacings ({h / dx:.3g} "
                       "given): below that the fluid's own lattice ripple outweighs the "
-                      "surface (README, \"The wcsph method\"); 2 spacings is the default")
+                      "surface (docs/method-wcsph.md, W10-W12); 2 spacings is the default")
         elif lo and hi:
             nodes = ((hi[0] - lo[0] + 4 * h) / (dx / 2) + 1) * (
                 (hi[1] - lo[1] + 4 * h) / (dx / 2) + 1)

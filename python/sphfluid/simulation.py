@@ -89,7 +89,7 @@ def _wall_array(scene: Scene) -> np.ndarray:
 
 
 class Simulation:
-    """A running simulation of a scene with the scene's method (``seed``: SPEC.md).
+    """A running simulation of a scene with the scene's method (``seed``: docs/method-seed.md).
 
     The array properties (``positions``, ``velocities``, ``accelerations``,
     ``densities``, ``pressures``, ``ids``) are read-only numpy views of native
