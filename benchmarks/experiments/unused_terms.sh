@@ -16,7 +16,7 @@ pyb="$(python -c 'import pybind11; print(pybind11.get_cmake_dir())')"
 build() {  # build NAME SED-EXPRESSION
   mkdir -p "$work/src_$1" "$work/pkg_$1"
   (cd "$repo" && git ls-files | tar -cf - -T - | tar -xf - -C "$work/src_$1")
-  [ -n "$2" ] && sed -i "$2" "$work/src_$1/cpp/solver.cpp" "$work/src_$1/cpp/solver_wcsph.cpp"
+  [ -n "$2" ] && sed -i "$2" "$work/src_$1/cpp/methods/seed/seed.cpp" "$work/src_$1/cpp/methods/wcsph/wcsph.cpp"
   cmake -S "$work/src_$1" -B "$work/b_$1" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DSPHFLUID_NATIVE=OFF -Dpybind11_DIR="$pyb" -DSKBUILD_PROJECT_NAME=sphfluid \
     -DSKBUILD_PROJECT_VERSION=0 > "$work/cmake_$1.log"

@@ -15,6 +15,7 @@
 #include "core/types.hpp"
 #include "neighbours/cell_pairs.hpp"
 #include "neighbours/grid.hpp"
+#include "simd/ints.hpp"
 #include "simd/points.hpp"
 
 namespace sphfluid {
@@ -160,9 +161,10 @@ class CellFloatFrame {
     simd::F8 shift;
     SPHFLUID_INLINE void positions(Index j, const Span& s, simd::F8& px, simd::F8& py) const {
       const simd::F8 one = simd::F8::splat(1);
+      const simd::I8 index = simd::I8::splat(j) + simd::I8::iota();
       simd::F8 x = simd::F8::load(ux + j, s.lanes);
-      x = mask_sub(x, simd::first_lanes(left - j), x, one);
-      x = mask_add(x, static_cast<simd::Mask8>(~simd::first_lanes(right - j)), x, one);
+      x = mask_sub(x, lt(index, simd::I8::splat(left)), x, one);
+      x = mask_add(x, ge(index, simd::I8::splat(right)), x, one);
       px = x;
       py = simd::F8::load(uy + j, s.lanes) + shift;
     }

@@ -39,6 +39,8 @@ struct I8 {
     return _mm256_mask_cmpneq_epi32_mask(m, a.v, b.v);
   }
   SPHFLUID_INLINE friend Mask8 eq(I8 a, I8 b) { return _mm256_cmpeq_epi32_mask(a.v, b.v); }
+  SPHFLUID_INLINE friend Mask8 lt(I8 a, I8 b) { return _mm256_cmplt_epi32_mask(a.v, b.v); }
+  SPHFLUID_INLINE friend Mask8 ge(I8 a, I8 b) { return _mm256_cmpge_epi32_mask(a.v, b.v); }
   SPHFLUID_INLINE friend Mask8 nonzero(I8 a) { return _mm256_test_epi32_mask(a.v, a.v); }
 };
 

@@ -131,9 +131,10 @@ void WcsphMethod::state() {
   }
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
-    p[i] = wcsph::pressure(rho[i], rho0, B, pb);
-    inv_rho[i] = 1 / rho[i];
-    por2[i] = p[i] * inv_rho[i] * inv_rho[i];
+    const Real rho_i = rho[i], p_i = wcsph::pressure(rho_i, rho0, B, pb), ir = 1 / rho_i;
+    p[i] = p_i;
+    inv_rho[i] = ir;
+    por2[i] = p_i * ir * ir;
   }
   ctx_.timer.mark(kDensity);
 }
