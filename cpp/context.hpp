@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "boundary/ghosts.hpp"
-#include "boundary/periodic.hpp"
+#include "core/periodic.hpp"
 #include "boundary/walls.hpp"
 #include "core/params.hpp"
 #include "core/particles.hpp"

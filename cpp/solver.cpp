@@ -39,16 +39,12 @@ const SimParams& checked(const SimParams& P) {
   require(P.guard_density_ratio > 1 && P.guard_speed_factor > 0 && P.guard_energy_factor > 0,
           "guard limits must be positive (density ratio > 1)");
   require(P.max_retries >= 0 && P.max_retries <= 20, "max_retries must be in [0, 20]");
-  method_entry(P.method).check(P);
-  require(std::isfinite(P.alpha) && P.alpha >= 0, "artificial viscosity alpha must be >= 0");
-  require(std::isfinite(P.background_pressure) && P.background_pressure >= 0,
-          "background pressure must be >= 0");
+  method_entry(P.method).check(P);  // the method's own parameters
   const Vec2 length = P.domain_max - P.domain_min;
   require(!P.periodic_x || length.x() >= 2 * P.h,
           "a periodic x axis needs a domain at least 2 h wide");
   require(!P.periodic_y || length.y() >= 2 * P.h,
           "a periodic y axis needs a domain at least 2 h high");
-  require(std::isfinite(P.spacing) && P.spacing >= 0, "spacing must be >= 0");
   return P;
 }
 

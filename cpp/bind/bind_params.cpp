@@ -23,7 +23,7 @@ void bind_params(py::module_& m) {
 
   py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
       .def(py::init<>())
-      .def_readwrite("method", &SimParams::method, "seed (SPEC.md) or wcsph")
+      .def_readwrite("method", &SimParams::method, "seed (docs/method-seed.md) or wcsph (docs/method-wcsph.md)")
       .def_readwrite("c0", &SimParams::c0, "wcsph: speed of sound, m/s")
       .def_readwrite("alpha", &SimParams::alpha, "wcsph: artificial viscosity coefficient")
       .def_readwrite("background_pressure", &SimParams::background_pressure,

@@ -126,7 +126,9 @@ void def_threads(SolverClass& c) {
 
 // The run's counts and measurements.
 void def_diagnostics(SolverClass& c) {
-  c.def_property_readonly("params", &Solver::params)
+  c.def_property_readonly(
+       "params", [](const Solver& s) { return s.params(); },
+       "a copy of the run's parameters (changing it changes nothing in the run)")
       .def_property_readonly("n_particles", &Solver::size)
       .def_property_readonly("time", &Solver::time, "simulated time, s")
       .def_property_readonly("step_count", &Solver::step_count)
@@ -134,7 +136,7 @@ void def_diagnostics(SolverClass& c) {
                              "particles removed for leaving the domain")
       .def_property_readonly("features", &Solver::features,
                              "bit set of active optional terms: 1 viscosity, 2 surface "
-                             "tension, 4 walls")
+                             "tension, 4 walls, 8 periodic axes")
       .def_property_readonly(
           "memory_bytes",
           [](const Solver& s) {
@@ -201,7 +203,7 @@ void def_arrays(SolverClass& c) {
 
 void bind_solver(py::module_& m) {
   py::register_exception<InstabilityError>(m, "InstabilityError", PyExc_RuntimeError);
-  SolverClass c(m, "Solver", "The seed SPH method on a set of particles and walls.");
+  SolverClass c(m, "Solver", "A run of the SPH method of `params` on a set of particles and walls.");
   def_construction(c);
   def_stepping(c);
   def_editing(c);

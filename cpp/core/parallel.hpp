@@ -27,7 +27,7 @@ inline int resolve_threads(int requested) {
 }
 
 // Below this many particles a step runs on one thread, whatever was asked:
-// the pair-once loops have a single block there (Solver::pair_block), and the
+// the pair-once loops have a single block there (NeighbourSearch::pair_block), and the
 // threads' start and join cost more than the rest of the work could gain. Seed
 // dam break, 2 threads against 1: at 703 particles 7,371 against 14,109
 // steps/s, at 990 10,212 against 10,216 (medians of 7; 5,446 at worst), at

@@ -57,7 +57,7 @@ struct SimParams {
   int threads = 0;  // OpenMP threads; 0 = the OpenMP default
 
   // The seed's pair forces (pressure, viscosity) summed in single precision
-  // where the cell clusters run (cell_pairs.hpp, SeedFloats); everything else
+  // where the cell clusters run (CellFloatFrame and SeedFloats); everything else
   // stays in double. docs/method-seed.md, "Pair forces in single precision".
   bool float_pairs = false;
 

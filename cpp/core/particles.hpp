@@ -13,7 +13,7 @@
 
 #include "core/parallel.hpp"
 #include "core/types.hpp"
-#include "neighbours/moves.hpp"
+#include "core/moves.hpp"
 
 namespace sphfluid {
 
@@ -36,6 +36,7 @@ class FieldBase {
 
   const char* name() const { return name_; }
   FieldKind kind() const { return kind_; }
+  virtual std::size_t size() const = 0;
   virtual void resize(std::size_t n) = 0;
   virtual void compact(const std::vector<char>& keep) = 0;
   virtual std::size_t bytes() const = 0;
@@ -49,7 +50,12 @@ class FieldBase {
   virtual void apply_part(const MoveParts& parts, int t, const std::vector<Move>& blocks,
                           const std::vector<Move>& jumps) = 0;
 
+ protected:
+  // The set's particles when this field registered (its first field's size).
+  std::size_t initial_size() const { return initial_size_; }
+
  private:
+  std::size_t initial_size_ = 0;
   ParticleSet* set_;
   const char* name_;
   FieldKind kind_;
@@ -60,14 +66,14 @@ class Field final : public FieldBase {
  public:
   using Buffer = std::vector<T>;
 
-  Field(ParticleSet& set, const char* name, FieldKind kind)
-      : FieldBase(set, name, kind), buf_(std::make_shared<Buffer>()) {}
+  // Sized to the set's particles (a field registered after they exist).
+  Field(ParticleSet& set, const char* name, FieldKind kind);
 
   T* data() { return buf_->data(); }
   const T* data() const { return buf_->data(); }
   T& operator[](std::size_t i) { return (*buf_)[i]; }
   const T& operator[](std::size_t i) const { return (*buf_)[i]; }
-  std::size_t size() const { return buf_->size(); }
+  std::size_t size() const override { return buf_->size(); }
   // Heap bytes held by this field (its buffer and its scratch), capacity included.
   std::size_t bytes() const override {
     return (buf_->capacity() + (tmp_ ? tmp_->capacity() : 0)) * sizeof(T);
@@ -203,8 +209,14 @@ class ParticleSet {
   }
 };
 
+template <class T>
+Field<T>::Field(ParticleSet& set, const char* name, FieldKind kind)
+    : FieldBase(set, name, kind),
+      buf_(std::make_shared<Buffer>(initial_size())) {}
+
 inline FieldBase::FieldBase(ParticleSet& set, const char* name, FieldKind kind)
     : set_(&set), name_(name), kind_(kind) {
+  if (!set.fields_.empty()) initial_size_ = set.fields_.front()->size();
   set.fields_.push_back(this);
 }
 inline FieldBase::~FieldBase() {

@@ -32,6 +32,10 @@ const MethodEntry kMethods[] = {
      [](const SimParams& p) { return p.h / 2; },
      [](const SimParams& p) {
        require(std::isfinite(p.c0) && p.c0 > 0, "wcsph needs a speed of sound c0 > 0");
+       require(std::isfinite(p.alpha) && p.alpha >= 0, "artificial viscosity alpha must be >= 0");
+       require(std::isfinite(p.background_pressure) && p.background_pressure >= 0,
+               "background pressure must be >= 0");
+       require(std::isfinite(p.spacing) && p.spacing >= 0, "spacing must be >= 0");
      },
      make<WcsphMethod>},
 };

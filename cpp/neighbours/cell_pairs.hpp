@@ -27,6 +27,7 @@
 #include "core/types.hpp"
 #include "neighbours/grid.hpp"
 #include "simd/points.hpp"
+#include "terms/density.hpp"
 
 namespace sphfluid {
 
@@ -106,60 +107,7 @@ class CellPairs {
           const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
           for (Index q0 = s0; q0 < s1; q0 += kDensityTile)
             with_tile<kDensityTile>(s1 - q0, [&](auto tile) {
-              constexpr int K = decltype(tile)::value;
-            using simd::D8;
-            D8 acc[K], xs[K], ys[K];  // the tile's sums and positions
-            for (int q = 0; q < K; ++q) {
-              acc[q] = simd::zero<D8>();
-              xs[q] = D8::splat(x[q0 + q].x());
-              ys[q] = D8::splat(x[q0 + q].y());
-            }
-            // Returns the pairs it met (counted where asked), in a local rather than
-            // in the thread's total, which stays in memory.
-            auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
-              unsigned met = 0;
-              for (Index j = j0; j < j1; j += 8) {
-                const simd::Span8 g(j1 - j);
-                D8 at_x, at_y;
-                simd::load_xy(x[j].data(), g, at_x, at_y);
-                D8 wj = simd::zero<D8>();
-                for (int q = 0; q < K; ++q) {
-                  const Index i = q0 + q;
-                  const simd::Mask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
-                  if (!live) continue;
-                  const D8 dx = xs[q] - at_x, dy = ys[q] - at_y;
-                  const D8 r2 = simd::fmadd(dx, dx, dy * dy);
-                  const simd::Mask8 in = simd::lt(live, r2, h2);
-                  // A weight of a few instructions goes without a branch on in
-                  // (whose mispredictions cost more); one with a square root not.
-                  D8 wv;
-                  if constexpr (IsCheap<WeightOfR2>::value) {
-                    wv = simd::maskz(in, w.unscaled(r2));
-                  } else {
-                    if (!in) continue;
-                    wv = simd::maskz(in, w(r2));
-                  }
-                  acc[q] = acc[q] + wv;
-                  wj = wj + wv;
-                  if (count) met += static_cast<unsigned>(simd::count(in));
-                }
-                if (scatter) (D8::load(rho + j, g.lanes) + wj).store(rho + j, g.lanes);
-              }
-              return met;
-            };
-            row += run(q0 + 1, runs.own_end, true, true, true);
-            row += run(runs.above0, runs.above1, false, runs.above_in_block, true);
-            run(runs.below0, runs.below1, false, false, false);
-            // Every pair of these particles is in now (no later cell adds to them).
-            for (int q = 0; q < K; ++q) {
-              const Index i = q0 + q;
-              const Real sum = rho[i] + simd::reduce_add(acc[q]);
-              if constexpr (IsCheap<WeightOfR2>::value) {
-                rho[i] = m * (self + w.factor() * sum);
-              } else {
-                rho[i] = m * (self + sum);
-              }
-            }
+              row += density_tile<decltype(tile)::value>(x, h2, m, self, w, rho, q0, runs);
             });
         }
         row_pairs[cy] = row;
@@ -324,6 +272,65 @@ class CellPairs {
   // runs: each pair met once, its weight added to both (j's shares in rho[],
   // i's in registers until every pair of the tile is in). Returns the pairs
   // met in the own row and the row above.
+  template <int K, class WeightOfR2>
+  SPHFLUID_INLINE static std::int64_t density_tile(const Vec2* x, simd::D8 h2, Real m, Real self,
+                                                   const WeightOfR2& w, Real* rho, Index q0,
+                                                   const Runs& runs) {
+    using simd::D8;
+    D8 acc[K], xs[K], ys[K];  // the tile's sums and positions
+    for (int q = 0; q < K; ++q) {
+      acc[q] = simd::zero<D8>();
+      xs[q] = D8::splat(x[q0 + q].x());
+      ys[q] = D8::splat(x[q0 + q].y());
+    }
+    // Returns the pairs it met (counted where asked), in a local rather than
+    // in the thread's total, which stays in memory.
+    auto run = [&](Index j0, Index j1, bool own, bool scatter, bool count) {
+      unsigned met = 0;
+      for (Index j = j0; j < j1; j += 8) {
+        const simd::Span8 g(j1 - j);
+        D8 at_x, at_y;
+        simd::load_xy(x[j].data(), g, at_x, at_y);
+        D8 wj = simd::zero<D8>();
+        for (int q = 0; q < K; ++q) {
+          const Index i = q0 + q;
+          const simd::Mask8 live = own ? g.lanes & after<8>(i, j) : g.lanes;
+          if (!live) continue;
+          const D8 dx = xs[q] - at_x, dy = ys[q] - at_y;
+          const D8 r2 = simd::fmadd(dx, dx, dy * dy);
+          const simd::Mask8 in = simd::lt(live, r2, h2);
+          // A weight of a few instructions goes without a branch on in
+          // (whose mispredictions cost more); one with a square root not.
+          D8 wv;
+          if constexpr (IsCheap<WeightOfR2>::value) {
+            wv = simd::maskz(in, w.unscaled(r2));
+          } else {
+            if (!in) continue;
+            wv = simd::maskz(in, w(r2));
+          }
+          acc[q] = acc[q] + wv;
+          wj = wj + wv;
+          if (count) met += static_cast<unsigned>(simd::count(in));
+        }
+        if (scatter) (D8::load(rho + j, g.lanes) + wj).store(rho + j, g.lanes);
+      }
+      return met;
+    };
+    std::int64_t pairs = run(q0 + 1, runs.own_end, true, true, true);
+    pairs += run(runs.above0, runs.above1, false, runs.above_in_block, true);
+    run(runs.below0, runs.below1, false, false, false);
+    // Every pair of these particles is in now (no later cell adds to them).
+    for (int q = 0; q < K; ++q) {
+      const Index i = q0 + q;
+      const Real sum = rho[i] + simd::reduce_add(acc[q]);
+      if constexpr (IsCheap<WeightOfR2>::value) {
+        rho[i] = summation_density(m, self, w.factor() * sum);
+      } else {
+        rho[i] = summation_density(m, self, sum);
+      }
+    }
+    return pairs;
+  }
 #endif
 
   // The pair passes' blocks, as many as the density pass's, cut where the

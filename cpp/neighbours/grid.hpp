@@ -8,14 +8,11 @@
 
 #include <algorithm>
 #include <vector>
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
 
-#include "boundary/periodic.hpp"
+#include "core/periodic.hpp"
 #include "core/parallel.hpp"
 #include "core/types.hpp"
-#include "neighbours/moves.hpp"
+#include "core/moves.hpp"
 #include "simd/ints.hpp"
 
 namespace sphfluid {
@@ -75,8 +72,9 @@ class CellGrid {
   // particles takes the box, and the cells and marks if the grid stays the
   // same (a particle outside it changes the box, so none was clamped).
   // Anything else that moves or reorders the particles drops it.
-  // Whether the last sort was of n particles on a grid of cells: only then
-  // do sorted_cells() hold n entries to compare against.
+  //
+  // can_look_ahead: whether the last sort was of n particles on a grid of
+  // cells (only then do sorted_cells() hold n entries to compare against).
   bool can_look_ahead(Index n) const { return n > 0 && sorted_n_ == n && n_cells() > 0; }
   Index* ahead_cells(Index n) {
     cell_in_.resize(n);
@@ -105,8 +103,7 @@ class CellGrid {
   Index nx() const { return nx_; }
   Index ny() const { return ny_; }
   std::size_t n_cells() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
-  // Particles of cell c (after the permutation): [cell_start(c), cell_start(c + 1)).
-  Index cell_start(std::size_t c) const { return cell_start_[c]; }
+  // Particles of cell c (after the permutation): [cell_starts()[c], cell_starts()[c + 1]).
   const Index* cell_starts() const { return cell_start_.data(); }
   // Along a non-periodic axis the sort puts a position p in the cell
   // (p - origin) * inv_width(), truncated and clamped to the grid: cells of

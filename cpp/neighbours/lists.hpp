@@ -7,7 +7,7 @@
 
 #include <algorithm>
 
-#include "boundary/periodic.hpp"
+#include "core/periodic.hpp"
 #include "core/csr.hpp"
 #include "core/types.hpp"
 #include "neighbours/grid.hpp"

@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "boundary/periodic.hpp"
+#include "core/periodic.hpp"
 #include "core/csr.hpp"
 #include "core/particles.hpp"
 #include "core/timer.hpp"
@@ -17,6 +17,7 @@
 #include "neighbours/cell_pairs.hpp"
 #include "neighbours/grid.hpp"
 #include "neighbours/lists.hpp"
+#include "terms/density.hpp"
 
 namespace sphfluid {
 
@@ -83,15 +84,17 @@ class NeighbourSearch {
                         Real sum = self;
                         for (Index q = 0; q < count; ++q)
                           sum += w(box.delta(xi, x[nbr[q]]).squaredNorm());
-                        rho[i] = m * sum;
+                        rho[i] = summation_density(m, 0, sum);
                       });
     } else if constexpr (Once) {
       // rho[] carries the weights within a block until each row is done.
       lists::half(grid_, x, n, h, threads, pair_block(n), nbrs_, rho, w,
-                  [&](Index i, Real sum) { rho[i] = m * (self + sum); });
+                  [&](Index i, Real sum) { rho[i] = summation_density(m, self, sum); });
     } else {
       lists::full(grid_, x, n, h, threads, nbrs_, w,
-                  [&](Index i, const Index*, Index, Real sum) { rho[i] = m * (self + sum); });
+                  [&](Index i, const Index*, Index, Real sum) {
+                    rho[i] = summation_density(m, self, sum);
+                  });
     }
     timer.mark(kNeighbours);
   }

@@ -24,8 +24,6 @@
 #endif
 
 #define SPHFLUID_INLINE inline __attribute__((always_inline))
-// The same for a lambda (after its parameter list): a traversal's inner loop.
-#define SPHFLUID_INLINE_LAMBDA __attribute__((always_inline))
 
 namespace sphfluid::simd {
 
@@ -78,10 +76,11 @@ template <class T>
 SPHFLUID_INLINE IfScalar<T> fmsub(T a, T b, T c) { return a * b - c; }
 template <class T>
 SPHFLUID_INLINE IfScalar<T> sqrt(T a) { return std::sqrt(a); }
+// max and min as AVX-512's: the second operand where either is NaN.
 template <class T>
-SPHFLUID_INLINE IfScalar<T> max(T a, T b) { return a < b ? b : a; }
+SPHFLUID_INLINE IfScalar<T> max(T a, T b) { return a > b ? a : b; }
 template <class T>
-SPHFLUID_INLINE IfScalar<T> min(T a, T b) { return b < a ? b : a; }
+SPHFLUID_INLINE IfScalar<T> min(T a, T b) { return a < b ? a : b; }
 template <class T, class = IfScalar<T>>
 SPHFLUID_INLINE bool lt(bool live, T a, T b) { return live && a < b; }
 template <class T, class = IfScalar<T>>
@@ -337,6 +336,8 @@ struct Traits<Pack<Ops>> {
   static constexpr int kLanes = static_cast<int>(sizeof(typename Ops::V) / sizeof(typename Ops::T));
 };
 
+// 0, 1, ..., 7.
+SPHFLUID_INLINE D8 iota8() { return D8(_mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7)); }
 SPHFLUID_INLINE double reduce_min(D8 a) { return D8Ops::reduce_min(a.v); }
 SPHFLUID_INLINE double reduce_max(D8 a) { return D8Ops::reduce_max(a.v); }
 

@@ -25,20 +25,39 @@ struct Kernels {
         spiky_grad(-30 / (kPi * pow5(h_))),
         visc_lap(40 / (kPi * pow5(h_))) {}
 
-  // poly6: W = 4/(pi h^8) (h^2 - r^2)^3            (seed eq. 10)
-  Real w_poly6(Real r2) const {
-    const Real d = h2 - r2;
-    return d > 0 ? poly6 * d * d * d : Real(0);
+  // poly6 and its derivatives on any lane type, each written once, for
+  // r < h (the scalar forms below are zero beyond): d = h^2 - r^2 and
+  //   W = 4/(pi h^8) d^3                            (seed eq. 10)
+  //   grad W = -24/(pi h^8) d^2 r_ij = g r_ij        (colour-field normal)
+  //   lap W = -48/(pi h^8) d (h^2 - 3 r^2)           (colour-field curvature)
+  template <class L>
+  SPHFLUID_INLINE L poly6_cube(L r2) const {  // d^3, W over 4/(pi h^8)
+    const L d = simd::splat<L>(h2) - r2;
+    return d * d * d;
   }
-  // grad W = -24/(pi h^8) (h^2 - r^2)^2 r_ij         (colour-field normal)
+  template <class L>
+  SPHFLUID_INLINE L poly6_of(L r2) const {
+    const L d = simd::splat<L>(h2) - r2;
+    return simd::splat<L>(poly6) * d * d * d;
+  }
+  template <class L>
+  SPHFLUID_INLINE void poly6_derivatives(L r2, L& g, L& l) const {
+    const L d = simd::splat<L>(h2) - r2;
+    g = simd::splat<L>(poly6_grad) * d * d;
+    l = simd::splat<L>(poly6_lap) * d * (simd::splat<L>(h2) - simd::splat<L>(3) * r2);
+  }
+  Real w_poly6(Real r2) const { return r2 < h2 ? poly6_of(r2) : Real(0); }
   Vec2 grad_poly6(const Vec2& r_ij, Real r2) const {
-    const Real d = h2 - r2;
-    return d > 0 ? Vec2(poly6_grad * d * d * r_ij) : Vec2::Zero();
+    if (!(r2 < h2)) return Vec2::Zero();
+    Real g, l;
+    poly6_derivatives(r2, g, l);
+    return g * r_ij;
   }
-  // lap W = -48/(pi h^8) (h^2 - r^2)(h^2 - 3 r^2)    (colour-field curvature)
   Real lap_poly6(Real r2) const {
-    const Real d = h2 - r2;
-    return d > 0 ? poly6_lap * d * (h2 - 3 * r2) : Real(0);
+    if (!(r2 < h2)) return 0;
+    Real g, l;
+    poly6_derivatives(r2, g, l);
+    return l;
   }
   // spiky: W = 10/(pi h^5) (h - r)^3 (only its gradient enters the forces)
   Real w_spiky(Real r) const {
@@ -69,19 +88,17 @@ struct Kernels {
 // unscaled weights (h^2 - r^2)^3 and apply factor() once per particle.
 struct Poly6Weight {
   static constexpr bool kCheap = true;
-  Real h2, coef;  // h^2, 4/(pi h^8)
-  explicit Poly6Weight(const Kernels& k) : h2(k.h2), coef(k.poly6) {}
+  Kernels k;
+  explicit Poly6Weight(const Kernels& kernels) : k(kernels) {}
   template <class L>
   SPHFLUID_INLINE L unscaled(L r2) const {
-    const L d = simd::splat<L>(h2) - r2;
-    return d * d * d;
+    return k.poly6_cube(r2);
   }
   template <class L>
   SPHFLUID_INLINE L operator()(L r2) const {
-    const L d = simd::splat<L>(h2) - r2;
-    return simd::splat<L>(coef) * d * d * d;
+    return k.poly6_of(r2);
   }
-  Real factor() const { return coef; }
+  Real factor() const { return k.poly6; }
 };
 
 }  // namespace sphfluid

@@ -62,16 +62,14 @@ struct PairForce {
 // Laplacian, times m / rho_j: grad W_poly6(r_ij) = g r_ij and lap W_poly6(r_ij)
 // = lap, for r < h.
 struct ColourField {
-  Real h2, grad, lap;  // h^2, -24/(pi h^8), -48/(pi h^8)
-  explicit ColourField(const Kernels& k) : h2(k.h2), grad(k.poly6_grad), lap(k.poly6_lap) {}
+  Kernels k;
+  explicit ColourField(const Kernels& kernels) : k(kernels) {}
   template <class L>
   SPHFLUID_INLINE void pair(L r2, L& g, L& l) const {
-    const L d = simd::splat<L>(h2) - r2;
-    g = simd::splat<L>(grad) * d * d;
-    l = simd::splat<L>(lap) * d * (simd::splat<L>(h2) - simd::splat<L>(3) * r2);
+    k.poly6_derivatives(r2, g, l);
   }
   // The particle's own share of lap c (r = 0).
-  Real self_lap() const { return lap * h2 * h2; }
+  Real self_lap() const { return k.poly6_lap * k.h2 * k.h2; }
 };
 
 // Seed eq. 20: the surface tension force density -sigma lap c n / |n| where

@@ -3,14 +3,14 @@
 // (W4), Monaghan's artificial viscosity (W5) and Morris' viscosity (W6) on any
 // lane type (simd/lanes.hpp), and the walls' shares of the density (W7), the
 // pressure push (W8) and the viscous terms (W9) from the half-plane tables
-// (boundary/wall_tables.hpp). The density's weight (W2) is WendlandWeight
+// (terms/wall_tables.hpp). The density's weight (W2) is WendlandWeight
 // (terms/wendland.hpp). Values in, values out.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 
-#include "boundary/wall_tables.hpp"
+#include "terms/wall_tables.hpp"
 #include "core/csr.hpp"
 #include "core/types.hpp"
 #include "simd/lanes.hpp"
@@ -29,12 +29,12 @@ SPHFLUID_INLINE Real pressure(Real rho, Real rho0, Real B, Real pb) {
   return std::max(B * (r3 * r3 * r - 1) + pb, Real(0));
 }
 
-// The constants of the pair force: the kernel's 1/h and gradient factor, the
-// particle mass, eps^2 = 0.01 hs^2, alpha c0 hs and 2 m eta (hs = h/2, the
-// smoothing length of a kernel of support h).
+// The constants of the pair force: the particle mass, eps^2 = 0.01 hs^2,
+// alpha c0 hs and 2 m eta (hs = h/2, the smoothing length of a kernel of
+// support h).
 template <class L>
 struct PairConstants {
-  L inv_h, grad, m, eps2, av, m_eta2;
+  L m, eps2, av, m_eta2;
 };
 
 // W4-W6 for one pair on the lanes of `in` (r < h), as an acceleration on i
@@ -46,13 +46,11 @@ struct PairConstants {
 template <bool Viscosity>
 struct PairForce {
   template <class L>
-  static SPHFLUID_INLINE void f(simd::Mask<L> in, const PairConstants<L>& c, L rho_sum,
-                                L por2_sum, L ir_i, L ir_j, L dx, L dy, L r2, L vijx, L vijy,
-                                L& fx, L& fy) {
+  static SPHFLUID_INLINE void f(simd::Mask<L> in, const Wendland& W, const PairConstants<L>& c,
+                                L rho_sum, L por2_sum, L ir_i, L ir_j, L dx, L dy, L r2, L vijx,
+                                L vijy, L& fx, L& fy) {
     const L zero = simd::zero<L>();
-    const L q = simd::sqrt(r2) * c.inv_h;
-    const L a = simd::max(simd::splat<L>(1) - q, zero);
-    const L s = c.grad * a * a * a;
+    const L s = W.gradient_factor(simd::sqrt(r2));
     const L gwx = s * dx, gwy = s * dy;
     const L vr = simd::fmadd(vijx, dx, vijy * dy);
     // one division for both viscosities

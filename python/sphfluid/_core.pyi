@@ -164,7 +164,8 @@ class Solver(metaclass=_Pybind11Type):
     @property
     def n_particles(self) -> int: ...
     @property
-    def params(self) -> SimParams: ...
+    def params(self) -> SimParams:
+        """A copy of the run's parameters (changing it changes nothing in the run)."""
     # the run so far
     @property
     def time(self) -> float:
@@ -200,7 +201,8 @@ class Solver(metaclass=_Pybind11Type):
     # what runs and what it costs
     @property
     def features(self) -> int:
-        """Bit set of the active optional terms: 1 viscosity, 2 surface tension, 4 walls."""
+        """Bit set of the active optional terms: 1 viscosity, 2 surface tension, 4 walls,
+        8 periodic axes."""
     @property
     def float_pairs(self) -> bool:
         """Whether the pair forces run in single precision (asked for, seed, cell clusters)."""

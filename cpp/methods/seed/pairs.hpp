@@ -34,7 +34,11 @@ struct ForcePairs {
   SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
     d.p = simd::load<L>(p + j, s.lanes);
     d.ir = simd::load<L>(ir + j, s.lanes);
-    if constexpr (Viscosity) v.template group<L>(j, s, d.vx, d.vy);
+    if constexpr (Viscosity) {
+      v.template group<L>(j, s, d.vx, d.vy);
+    } else {
+      d.vx = d.vy = simd::zero<L>();  // (unread)
+    }
   }
   SPHFLUID_INLINE void add(Index i, const Data& dj, simd::Mask<L> in, L dx, L dy, L r2, L& fix,
                            L& fiy, L& fjx, L& fjy) const {

@@ -20,6 +20,7 @@ struct ForcePairs {
   const Real* por2;
   const Real* ir;
   InterleavedVelocity v;
+  Wendland W;
   PairConstants<L> c;
   struct Data {
     L rho, por2, ir, vx, vy;
@@ -28,14 +29,14 @@ struct ForcePairs {
   SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
     d.rho = simd::load<L>(rho + j, s.lanes);
     d.por2 = simd::load<L>(por2 + j, s.lanes);
-    if constexpr (Viscosity) d.ir = simd::load<L>(ir + j, s.lanes);
+    d.ir = Viscosity ? simd::load<L>(ir + j, s.lanes) : simd::zero<L>();
     v.template group<L>(j, s, d.vx, d.vy);
   }
   SPHFLUID_INLINE void add(Index i, const Data& dj, simd::Mask<L> in, L dx, L dy, L r2, L& fix,
                            L& fiy, L& fjx, L& fjy) const {
     const L vijx = simd::splat<L>(v.x(i)) - dj.vx, vijy = simd::splat<L>(v.y(i)) - dj.vy;
     L fx, fy;
-    PairForce<Viscosity>::f(in, c, simd::splat<L>(rho[i]) + dj.rho,
+    PairForce<Viscosity>::f(in, W, c, simd::splat<L>(rho[i]) + dj.rho,
                             simd::splat<L>(por2[i]) + dj.por2, simd::splat<L>(ir[i]), dj.ir, dx,
                             dy, r2, vijx, vijy, fx, fy);
     fix = fix + fx;

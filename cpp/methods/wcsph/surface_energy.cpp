@@ -328,7 +328,8 @@ void SurfaceEnergy::scatter_gradient(const Vec2* x, int threads) {
   Real* nxs = node_x_.data();
   Real* nys = node_y_.data();
   const Real* vol = vol_.data();
-  const Real inv_h = w_.inv_h, grad = w_.grad, gx = gx_;
+  const Wendland W = w_;
+  const Real gx = gx_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index q = 0; q < by_; ++q) {
     const Index row_lo = q * bin_y_, row_hi = q == by_ - 1 ? ny_ : (q + 1) * bin_y_;
@@ -338,7 +339,7 @@ void SurfaceEnergy::scatter_gradient(const Vec2* x, int threads) {
       for (Index bin = qs[s] * bx_; bin < (qs[s] + 1) * bx_; ++bin)
         for (Index k = bin_start_[bin]; k < bin_start_[bin + 1]; ++k) {
           const Index j = bin_items_[k];
-          const Real vg = vol[j] * grad;
+          const Real vg = vol[j] * W.grad;
           visit_rows(x[j], row_lo, row_hi, [&](std::size_t c0, Index count, Real rx0, Real dy) {
             Real* gxr = nxs + c0;
             Real* gyr = nys + c0;
@@ -346,7 +347,7 @@ void SurfaceEnergy::scatter_gradient(const Vec2* x, int threads) {
 #pragma omp simd
             for (Index i = 0; i < count; ++i) {  // V_j grad W_H(x_c - x_j)
               const Real rx = rx0 + i * gx;
-              const Real f = surface::node_gradient(vg, rx, dy2, inv_h);
+              const Real f = W.gradient_times(vg, std::sqrt(rx * rx + dy2));
               gxr[i] += f * rx;
               gyr[i] += f * dy;
             }
@@ -392,7 +393,8 @@ void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) 
   const Real* vol = vol_.data();
   Real* gamma = gamma_.data();
   Vec2* acc = acc_.data();
-  const Real inv_h = w_.inv_h, grad = w_.grad, gx = gx_;
+  const Wendland W = w_;
+  const Real gx = gx_;
   const Real k_area = scale_ * gx_ * gy_;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index j = 0; j < n; ++j) {
@@ -400,8 +402,8 @@ void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) 
 #if SPHFLUID_AVX512
     using simd::D8;
     D8 lx = simd::zero<D8>(), ly = lx, ln = lx;
-    const D8 iota = D8(_mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7));
-    const D8 v_gx = D8::splat(gx), v_inv_h = D8::splat(inv_h), v_grad = D8::splat(grad);
+    const D8 iota = simd::iota8();
+    const D8 v_gx = D8::splat(gx);
 #endif
     visit_rows(x[j], 0, ny_, [&](std::size_t c0, Index count, Real rx0, Real dy) {
       const Real* ncx = nxs + c0;
@@ -411,8 +413,8 @@ void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) 
         const D8 v_dy = D8::splat(dy), v_dy2 = D8::splat(dy * dy), v_rx0 = D8::splat(rx0);
         for (Index i = 0; i < count; i += 8) {
           const D8 rx = simd::fmadd(D8::splat(Real(i)) + iota, v_gx, v_rx0);
-          surface::node_force(rx, v_dy, v_dy2, D8::loadu(ncx + i), D8::loadu(ncy + i), v_inv_h,
-                              v_grad, lx, ly, ln);
+          surface::node_force(W, rx, v_dy, v_dy2, D8::loadu(ncx + i), D8::loadu(ncy + i), lx, ly,
+                              ln);
         }
         return;
       }
@@ -423,7 +425,7 @@ void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) 
       Real sx = 0, sy = 0, sn = 0;
 #pragma omp simd reduction(+ : sx, sy, sn)
       for (Index i = 0; i < count; ++i)
-        surface::node_force(rx0 + i * gx, dy, dy2, ncx[i], ncy[i], inv_h, grad, sx, sy, sn);
+        surface::node_force(W, rx0 + i * gx, dy, dy2, ncx[i], ncy[i], sx, sy, sn);
       fx += sx;
       fy += sy;
       ng += sn;
@@ -442,7 +444,8 @@ void SurfaceEnergy::node_forces(const Vec2* x, Index n, Real mass, int threads) 
 void SurfaceEnergy::volume_forces(const Vec2* x, Index n, Real mass, int threads) {
   const Real* gamma = gamma_.data();
   Vec2* acc = acc_.data();
-  const Real H2 = w_.h * w_.h, inv_h = w_.inv_h, grad = w_.grad;
+  const Wendland W = w_;
+  const Real H2 = W.h2;
   [[maybe_unused]] const bool runs = kVectorRuns && !box_.any();
 #if SPHFLUID_AVX512
   if (runs) {
@@ -458,11 +461,10 @@ void SurfaceEnergy::volume_forces(const Vec2* x, Index n, Real mass, int threads
 #if SPHFLUID_AVX512
     if (runs) {  // eight candidates at a time
       using simd::D8;
-      const D8 v_gj = D8::splat(gj), v_grad = D8::splat(grad), v_inv_h = D8::splat(inv_h);
+      const D8 v_gj = D8::splat(gj);
       D8 lx = simd::zero<D8>(), ly = lx;
       near_lanes(xj, j, [&](simd::Mask8 m, Index k, D8 dx, D8 dy, D8 r2) {
-        const D8 a = max(D8::splat(1) - sqrt(r2) * v_inv_h, simd::zero<D8>());
-        const D8 c = surface::volume_pair(v_gj + D8::load(bin_gamma_.data() + k, m), v_grad, a);
+        const D8 c = (v_gj + D8::load(bin_gamma_.data() + k, m)) * W.gradient_factor(sqrt(r2));
         lx = mask3_fmadd(c, dx, lx, m);
         ly = mask3_fmadd(c, dy, ly, m);
       });
@@ -475,8 +477,7 @@ void SurfaceEnergy::volume_forces(const Vec2* x, Index n, Real mass, int threads
       const Vec2 r = sep(xj, x[l]);
       const Real r2 = r.squaredNorm();
       if (!(r2 < H2)) return;
-      const Real a = std::max(1 - std::sqrt(r2) * inv_h, Real(0));
-      const Real c = surface::volume_pair(gj + gamma[l], grad, a);
+      const Real c = (gj + gamma[l]) * W.gradient_factor(std::sqrt(r2));
       fx = simd::fmadd(c, r.x(), fx);
       fy = simd::fmadd(c, r.y(), fy);
     });

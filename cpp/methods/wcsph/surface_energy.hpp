@@ -34,7 +34,7 @@
 
 #include <vector>
 
-#include "boundary/periodic.hpp"
+#include "core/periodic.hpp"
 #include "core/types.hpp"
 #include "terms/wendland.hpp"
 
@@ -48,7 +48,6 @@ class SurfaceEnergy {
                 const PeriodicBox& box);
   SurfaceEnergy() = default;
 
-  bool active() const { return scale_ > 0; }
   // E_s of the particles at x, and for each minus its gradient over m.
   void evaluate(const Vec2* x, Index n, Real mass, int threads);
   // Of the last evaluation: E_s, J per m of depth, and the accelerations.

@@ -53,8 +53,7 @@ std::size_t WcsphMethod::bytes() const {
 template <class L>
 wcsph::PairConstants<L> WcsphMethod::constants() const {
   const Real hs = Real(0.5) * P_.h;  // the smoothing length (support 2 hs)
-  return {simd::splat<L>(kernel_.inv_h), simd::splat<L>(kernel_.grad), simd::splat<L>(P_.mass),
-          simd::splat<L>(Real(0.01) * hs * hs),
+  return {simd::splat<L>(P_.mass), simd::splat<L>(Real(0.01) * hs * hs),
           simd::splat<L>(P_.alpha * P_.c0 * hs),  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
           simd::splat<L>(P_.mass * 2 * P_.eta)};
 }
@@ -167,7 +166,7 @@ void WcsphMethod::forces_by_cells() {
     // four lanes a group: the pair force's arithmetic outweighs the traversal
     const PositionFrame<simd::D4> frame(ps.x.data(), P_.h);
     const wcsph::ForcePairs<simd::D4, Viscosity> pair{
-        ps.rho.data(), por2_.data(), inv_rho_.data(), {ps.v.data()}, constants<simd::D4>()};
+        ps.rho.data(), por2_.data(), inv_rho_.data(), {ps.v.data()}, kernel_, constants<simd::D4>()};
     ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pair, ps.a.data(), ctx_.team());
     return;
   }
@@ -182,7 +181,7 @@ void WcsphMethod::forces_by_lists() {
   const Index n = ps.size();
   Vec2* a = ps.a.data();
   const wcsph::ForcePairs<Real, kVisc> forces{ps.rho.data(), por2_.data(), inv_rho_.data(),
-                                              {ps.v.data()}, constants<Real>()};
+                                              {ps.v.data()}, kernel_, constants<Real>()};
   if constexpr (pairs_once(F)) {
     if (!ctx_.search.has_half_lists(n))
       throw std::logic_error("the pair-once loop needs this evaluation's half lists");

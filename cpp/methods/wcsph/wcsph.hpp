@@ -10,7 +10,7 @@
 
 #include <vector>
 
-#include "boundary/wall_tables.hpp"
+#include "terms/wall_tables.hpp"
 #include "context.hpp"
 #include "core/features.hpp"
 #include "methods/method.hpp"

@@ -71,9 +71,8 @@ class WallTables {
         for (int i = -reach; i <= reach; ++i) {
           const Real r = std::sqrt(dn * dn + (i * dx) * (i * dx));
           if (r >= k_.h) continue;
-          const Real a = 1 - r * k_.inv_h;
           sw += k_.value(r);
-          sg += -k_.grad * a * a * a * dn;
+          sg += -k_.gradient_factor(r) * dn;
         }
       }
       half_[t] = sw * m_over_rho0;
@@ -99,9 +98,8 @@ class WallTables {
         auto add = [&](Real u, Real v, Real weight) {  // u, v: along normals 1, 2
           const Real r = std::sqrt(u * u + v * v);
           if (r >= k_.h) return;
-          const Real c = 1 - r * k_.inv_h;
           sw += weight * k_.value(r);
-          sg += weight * -k_.grad * c * c * c * u;
+          sg += weight * -k_.gradient_factor(r) * u;
         };
         if (dx > 0) {
           for (int k = 0; 2 * d1 + k * dx < k_.h; ++k)
