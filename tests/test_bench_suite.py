@@ -115,6 +115,20 @@ def test_suite_finds_the_peer_harness_in_a_source_checkout(monkeypatch):
     assert bench_suite.load_peers() is peers
 
 
+def test_benchmarks_found_from_a_checkouts_root_with_the_package_installed(
+        monkeypatch, tmp_path):
+    """A non-editable install run from the checkout's root finds its benchmarks/."""
+    from sphfluid import bench
+
+    monkeypatch.delenv(BENCHMARKS_ENV, raising=False)
+    monkeypatch.setattr(bench, "__file__", str(tmp_path / "site-packages" / "sphfluid" / "bench.py"))
+    monkeypatch.chdir(BENCHMARKS.parent)
+    assert bench.benchmarks_dir().resolve() == BENCHMARKS.resolve()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(bench.BenchmarksNotFoundError, match="run from the checkout's root"):
+        bench.benchmarks_dir()
+
+
 def test_suite_with_peers_and_no_benchmarks_folder_exits_2_before_running(
         monkeypatch, tmp_path, capsys):
     """An installed wheel has no benchmarks/: say so, no traceback, nothing run."""
@@ -124,6 +138,7 @@ def test_suite_with_peers_and_no_benchmarks_folder_exits_2_before_running(
     monkeypatch.setattr(bench_suite, "run_throughput",
                         lambda *a, **k: pytest.fail("the suite ran"))
     monkeypatch.delenv(BENCHMARKS_ENV, raising=False)
+    monkeypatch.chdir(tmp_path)  # not a checkout's root
     wheel = tmp_path / "site-packages" / "sphfluid"
     monkeypatch.setattr(bench, "__file__", str(wheel / "bench.py"))
     assert main(["bench", "--suite", "--peers"]) == 2

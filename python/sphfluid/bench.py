@@ -38,7 +38,8 @@ class BenchmarksNotFoundError(RuntimeError):
 def benchmarks_dir(explicit: Path | None = None) -> Path:
     """The repository's benchmarks/ folder: `explicit` (--benchmarks-dir), else
     $SPHFLUID_BENCHMARKS, else beside the package of a source checkout (an editable
-    install runs the package from <repo>/python/sphfluid).
+    install runs the package from <repo>/python/sphfluid), else in the current
+    folder (a checkout's root, with the package installed from it).
 
     Raises BenchmarksNotFoundError, saying where it looked, when there is none.
     """
@@ -49,11 +50,14 @@ def benchmarks_dir(explicit: Path | None = None) -> Path:
             raise BenchmarksNotFoundError(f"{how} {given} is not a folder")
         return given
     beside = Path(__file__).resolve().parent.parent.parent / "benchmarks"
-    if (beside / "peers").is_dir():
-        return beside
+    here = Path.cwd() / "benchmarks"
+    for candidate in (beside, here):
+        if (candidate / "peers").is_dir():
+            return candidate
     raise BenchmarksNotFoundError(
         "no benchmarks/ folder: it is in a source checkout of sphfluid, not in the wheel "
-        f"(looked in {beside}); give it with --benchmarks-dir DIR or ${BENCHMARKS_ENV}")
+        f"(looked in {beside} and {here}); run from the checkout's root or give it with "
+        f"--benchmarks-dir DIR or ${BENCHMARKS_ENV}")
 
 
 def load_benchmark(benchmarks: Path, relative: str) -> ModuleType:
