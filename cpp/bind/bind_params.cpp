@@ -5,6 +5,7 @@
 #include <array>
 
 #include "core/params.hpp"
+#include "methods/method.hpp"
 
 namespace py = pybind11;
 using namespace sphfluid;
@@ -17,9 +18,8 @@ std::array<double, 2> vec_to_pair(const Vec2& v) { return {v.x(), v.y()}; }
 }  // namespace
 
 void bind_params(py::module_& m) {
-  py::enum_<Method>(m, "Method", "The SPH method of a run")
-      .value("seed", Method::kSeed)
-      .value("wcsph", Method::kWcsph);
+  py::enum_<Method> method(m, "Method", "The SPH method of a run");
+  for (const MethodEntry& e : method_entries()) method.value(e.name, e.id);
 
   py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
       .def(py::init<>())

@@ -57,4 +57,13 @@ struct MethodEntry {
 
 const MethodEntry& method_entry(Method id);
 
+// Every registration, in order (the bindings name the methods from these).
+struct MethodEntries {
+  const MethodEntry* first;
+  const MethodEntry* last;
+  const MethodEntry* begin() const { return first; }
+  const MethodEntry* end() const { return last; }
+};
+MethodEntries method_entries();
+
 }  // namespace sphfluid

@@ -1,5 +1,6 @@
 // The methods' registrations (methods/method.hpp): one entry a method.
 #include <cmath>
+#include <iterator>
 #include <memory>
 #include <stdexcept>
 
@@ -42,8 +43,10 @@ const MethodEntry kMethods[] = {
 
 }  // namespace
 
+MethodEntries method_entries() { return {std::begin(kMethods), std::end(kMethods)}; }
+
 const MethodEntry& method_entry(Method id) {
-  for (const MethodEntry& e : kMethods)
+  for (const MethodEntry& e : method_entries())
     if (e.id == id) return e;
   throw std::invalid_argument("unknown method");
 }

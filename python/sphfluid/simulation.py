@@ -51,8 +51,8 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p = _core.SimParams()
     p.h = scene.smoothing_length
     p.rho0 = scene.rest_density
+    p.method = _core.Method.__members__[scene.method]  # the registered methods' names
     if scene.method == "wcsph":
-        p.method = _core.Method.wcsph
         p.c0 = speed_of_sound(scene)
         p.alpha = scene.artificial_viscosity
         p.background_pressure = scene.background_pressure
