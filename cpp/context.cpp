@@ -154,4 +154,34 @@ void Context::wrap_positions() {
   for (Index i = 0; i < size(); ++i) ps.x[i] = box.wrap(ps.x[i]);
 }
 
+void Context::add_gravity_and_kick(Real half, const Vec2* extra) {
+  const Index n = ps.size();
+  const Vec2* v = ps.v.data();
+  Vec2* a = ps.a.data();
+  const Vec2 g = params_.gravity;
+  const bool kick = half > 0;
+  Vec2* v_new = kick ? ps.v.begin_write(n) : nullptr;
+  bool bad = false;
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad)
+  for (Index i = 0; i < n; ++i) {
+    Vec2 f = a[i];
+    if (extra) f += extra[i];
+    a[i] = f + g;
+    if (kick) {
+      v_new[i] = v[i] + half * a[i];
+      bad = bad || !v_new[i].allFinite();
+    }
+  }
+  if (!kick) return;
+  if (bad) {
+    for (Index i = 0; i < n; ++i)
+      if (!v_new[i].allFinite())
+        throw InstabilityError("step " + std::to_string(step_count() + 1) + ": particle id " +
+                               std::to_string(ps.id[i]) +
+                               " got a non-finite velocity in the second half-kick [check: "
+                               "finite] (the state kept is the half step)");
+  }
+  ps.v.commit_write();
+}
+
 }  // namespace sphfluid

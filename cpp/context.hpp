@@ -74,8 +74,15 @@ class Context {
   // particle (seed 4.2), written into fresh buffers; the guard then checks
   // the new state (non-finite values, density, speed, kinetic energy), and
   // only a good one replaces the old (else InstabilityError).
+  // With `shift` (per particle, m), the drift is x += dt v + shift[i] (a
+  // method's particle shifting), the wall collision on that whole path.
   template <bool Walls, bool Periodic>
-  void integrate(Real dt, Real kick);
+  void integrate(Real dt, Real kick, const Vec2* shift = nullptr);
+  // a += extra (when given) + g; with half > 0 also the second half-kick of
+  // kick-drift-kick, v += half a, each particle's as soon as its acceleration
+  // is known, into a fresh buffer: a non-finite result keeps the half-step
+  // velocities (InstabilityError).
+  void add_gravity_and_kick(Real half, const Vec2* extra);
   // Particles that left the domain are removed (and counted), unless the
   // integration saw every particle inside.
   void leave_domain() {
@@ -121,7 +128,7 @@ class Context {
   template <bool Walls>
   Integration integrate8(Real dt, Real kick, Vec2* x_new, Vec2* v_new);
   template <bool Walls, bool Periodic>
-  Integration integrate1(Real dt, Real kick, Vec2* x_new, Vec2* v_new);
+  Integration integrate1(Real dt, Real kick, Vec2* x_new, Vec2* v_new, const Vec2* shift);
 
   const SimParams& params_;
   int threads_ = 1;

@@ -38,15 +38,19 @@ SPHFLUID_INLINE simd::Mask8 may_meet_wall(const WallSet& walls, simd::Mask8 ok, 
 #endif
 
 template <bool Walls, bool Periodic>
-void Context::integrate(Real dt, Real kick) {
+void Context::integrate(Real dt, Real kick, const Vec2* shift) {
   const Index n = size();
   Vec2* x_new = ps.x.begin_write(n);
   Vec2* v_new = ps.v.begin_write(n);
   Integration r;
   if constexpr (!Periodic && kVector8) {
-    r = integrate8<Walls>(dt, kick, x_new, v_new);
+    if (!shift) {
+      r = integrate8<Walls>(dt, kick, x_new, v_new);
+    } else {
+      r = integrate1<Walls, Periodic>(dt, kick, x_new, v_new, shift);
+    }
   } else {
-    r = integrate1<Walls, Periodic>(dt, kick, x_new, v_new);
+    r = integrate1<Walls, Periodic>(dt, kick, x_new, v_new, shift);
   }
   const Real kinetic = 0.5 * params_.mass * r.v2_sum;
   if (r.bad || (params_.guard &&
@@ -66,7 +70,8 @@ void Context::integrate(Real dt, Real kick) {
 
 // One particle at a time (and across periodic seams).
 template <bool Walls, bool Periodic>
-Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* v_new) {
+Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* v_new,
+                                        const Vec2* shift) {
   const Index n = size();
   const Vec2* x = ps.x.data();
   const Vec2* v = ps.v.data();
@@ -87,6 +92,7 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
     const Vec2 x_old = x[i];
     Vec2 vi = v[i] + kick * a[i];
     Vec2 xi = x_old + dt * vi;
+    if (shift) xi += shift[i];
     if constexpr (Walls)
       if (xi.allFinite() && vi.allFinite() && walls.may_hit(x_old, xi))
         walls.collide(x_old, xi, vi, e);

@@ -103,6 +103,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
     ps.v[i] = velocities[i];
     ps.id[i] = ids.empty() ? Id(i) : ids[i];
   }
+  method_->particles_added(0);
   particles_set();
 }
 
@@ -121,6 +122,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
     ps.v[n + i] = velocities[i];
     ps.id[n + i] = next + i;
   }
+  method_->particles_added(n);
   particles_set();  // pouring is an energy input: the guard's budget grows with it
 }
 

@@ -120,3 +120,46 @@ def wcsph_forces(x, v, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81), 
         visc = (m * 2 * eta / (rho[:, None] * rho[None, :]) * rg / (r2 + eps2))[..., None] * vij
         a += visc.sum(1)
     return rho, p, a + np.asarray(gravity)
+
+
+def delta_rate(x, v, rho, *, h, m, rho0, c0, delta, gravity=(0.0, -9.81), period=None):
+    """d rho / dt of wcsph with the continuity density and no walls
+    (docs/method-wcsph.md, W17-W18): rho_i sum_j V_j v_ij . grad W_ij plus the
+    diffusion delta hs c0 sum_j psi_ij (r_ji . grad W_ij)/r^2 V_j with
+    psi_ij = 2 [(rho_j - rho_i) + rho0 g . r_ij / c0^2]."""
+    r = separations(x, period)
+    r2 = (r**2).sum(-1)
+    gw = wendland_grad(r, h)
+    vij = v[:, None, :] - v[None, :, :]
+    vol = m / rho
+    rate = rho * ((vij * gw).sum(-1) * vol[None, :]).sum(1)
+    psi = 2.0 * ((rho[None, :] - rho[:, None]) + rho0 * (r @ np.asarray(gravity)) / c0**2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rg = np.where(r2 > 0, (-r * gw).sum(-1) / r2, 0.0)
+    rate += delta * 0.5 * h * c0 * (psi * rg * vol[None, :]).sum(1)
+    return rate
+
+
+def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
+                 period=None, background_pressure=0.0):
+    """Pressure and acceleration of wcsph with the continuity density and no
+    walls (W19 with W4-W6): Tait without the clamp, the sum form
+    (p_i + p_j)/(rho_i rho_j) of the pressure term, eps^2 = 1e-4 hs^2."""
+    r = separations(x, period)
+    r2 = (r**2).sum(-1)
+    B = rho0 * c0**2 / 7.0
+    p = B * ((rho / rho0) ** 7 - 1.0) + background_pressure
+    gw = wendland_grad(r, h)
+    vij = v[:, None, :] - v[None, :, :]
+    hs = 0.5 * h
+    eps2 = 1e-4 * hs**2
+    vr = (vij * r).sum(-1)
+    rho_bar = 0.5 * (rho[:, None] + rho[None, :])
+    pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
+    coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) + pi_ij
+    a = -(m * coef[..., None] * gw).sum(1)
+    if eta > 0:
+        rg = (r * gw).sum(-1)
+        visc = (m * 2 * eta / (rho[:, None] * rho[None, :]) * rg / (r2 + eps2))[..., None] * vij
+        a += visc.sum(1)
+    return p, a + np.asarray(gravity)

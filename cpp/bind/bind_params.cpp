@@ -30,6 +30,12 @@ void bind_params(py::module_& m) {
                      "wcsph: pressure added to the Tait EOS (sum clamped at 0), Pa")
       .def_readwrite("spacing", &SimParams::spacing,
                      "wcsph: lattice spacing the walls mirror, m (0: a continuum)")
+      .def_readwrite("continuity", &SimParams::continuity,
+                     "wcsph: density from the continuity equation (else the summation)")
+      .def_readwrite("delta", &SimParams::delta,
+                     "wcsph with continuity: density diffusion coefficient (0: none)")
+      .def_readwrite("shifting", &SimParams::shifting,
+                     "wcsph with continuity: particle shifting coefficient (0: none)")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
       .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
       .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")

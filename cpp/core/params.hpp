@@ -91,6 +91,13 @@ struct SimParams {
   // for flows with no free surface, where pressures below the reference are real.
   Real background_pressure = 0;  // Pa
   Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
+  // wcsph with the density from the continuity equation (docs/method-wcsph.md,
+  // W17-W22) instead of the summation: its diffusion coefficient delta (0:
+  // none) and the coefficient of particle shifting (0: none). The pressure is
+  // then not clamped at 0.
+  bool continuity = false;
+  Real delta = 0.1;
+  Real shifting = 0;
 
   // Speed of sound of the method's state equation, and the length in the
   // time-step conditions (the method's registration says: methods/registry.cpp).

@@ -36,6 +36,9 @@ class FieldBase {
 
   const char* name() const { return name_; }
   FieldKind kind() const { return kind_; }
+  // A method whose step carries this field from one step to the next (wcsph's
+  // continuity density) makes it state.
+  void set_kind(FieldKind kind) { kind_ = kind; }
   virtual std::size_t size() const = 0;
   virtual void resize(std::size_t n) = 0;
   virtual void compact(const std::vector<char>& keep) = 0;

@@ -37,6 +37,9 @@ class SphMethod {
   // from Newton steps (other methods: false).
   virtual bool float_pairs() const { return false; }
   virtual bool recip_root() const { return false; }
+  // Particles [first, size) were just set or added: a method that carries
+  // state of its own (a density) gives them their initial values.
+  virtual void particles_added(Index first) { (void)first; }
   // Heap bytes of the method's own arrays, capacity included.
   virtual std::size_t bytes() const = 0;
 };

@@ -6,6 +6,7 @@
 
 #include "methods/method.hpp"
 #include "methods/seed/seed.hpp"
+#include "methods/wcsph/delta.hpp"
 #include "methods/wcsph/wcsph.hpp"
 
 namespace sphfluid {
@@ -19,6 +20,12 @@ void require(bool ok, const char* what) {
 template <class M>
 std::unique_ptr<SphMethod> make(Context& ctx) {
   return std::make_unique<M>(ctx);
+}
+
+// wcsph's density: the summation (W2), or the continuity equation (W17-W22).
+std::unique_ptr<SphMethod> make_wcsph(Context& ctx) {
+  if (ctx.params().continuity) return std::make_unique<DeltaWcsphMethod>(ctx);
+  return std::make_unique<WcsphMethod>(ctx);
 }
 
 const MethodEntry kMethods[] = {
@@ -37,8 +44,12 @@ const MethodEntry kMethods[] = {
        require(std::isfinite(p.background_pressure) && p.background_pressure >= 0,
                "background pressure must be >= 0");
        require(std::isfinite(p.spacing) && p.spacing >= 0, "spacing must be >= 0");
+       require(std::isfinite(p.delta) && p.delta >= 0, "density diffusion delta must be >= 0");
+       require(std::isfinite(p.shifting) && p.shifting >= 0, "shifting must be >= 0");
+       require(!(p.continuity && p.sigma > 0),
+               "wcsph with the continuity density has no surface tension yet");
      },
-     make<WcsphMethod>},
+     make_wcsph},
 };
 
 }  // namespace

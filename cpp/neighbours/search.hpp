@@ -65,15 +65,16 @@ class NeighbourSearch {
   // the fluid part of each density, rho_i = m (w(0) + sum_j w(r_ij^2)), in
   // the same pass; w is the method's weight of r^2. With Once, the lists are
   // the half lists of the pair-once loops (each pair within a pair block
-  // stored once); with Periodic, minimum images across the box's seams.
+  // stored once); with Periodic, minimum images across the box's seams. The
+  // sums go to ps.rho, or to `sums` (n entries) when given.
   template <bool Periodic, bool Once, class WeightOfR2>
   void lists(ParticleSet& ps, Real h, Real m, int threads, const PeriodicBox& box, WeightOfR2 w,
-             PhaseTimer& timer) {
+             PhaseTimer& timer, Real* sums = nullptr) {
     static_assert(!(Periodic && Once), "the periodic seams keep full lists");
     const Index n = ps.size();
     sort(ps, h, threads, box, timer);
     const Vec2* x = ps.x.data();
-    Real* rho = ps.rho.data();
+    Real* rho = sums ? sums : ps.rho.data();
     const Real self = w(Real(0));
     half_lists_ = Once;
     cell_pair_count_ = -1;

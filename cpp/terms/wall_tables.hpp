@@ -35,6 +35,13 @@ class WallTables {
   // Both tables are divided by rho0 (the caller multiplies by it).
   void build(Real dx = 0, Real m_over_rho0 = 0) {
     build_corner_tables(dx, m_over_rho0);
+    // The hydrostatic push's tables: a lattice, or for the continuum a fine one.
+    if (dx > 0) {
+      build_hydrostatic_tables(dx, m_over_rho0);
+    } else {
+      const Real fine = k_.h / 64;
+      build_hydrostatic_tables(fine, fine * fine);
+    }
     if (dx > 0) {
       build_lattice_tables(dx, m_over_rho0);
       return;
@@ -77,6 +84,31 @@ class WallTables {
       }
       half_[t] = sw * m_over_rho0;
       line_[t] = sg * m_over_rho0;
+    }
+  }
+
+  // For the push of a half-plane whose pressure grows along gravity
+  // (terms/delta.hpp, W20): nn(d) and tt(d) sum -W'/r s_n^2 and -W'/r s_t^2
+  // over the mirrored lattice (s_n = 2d + k dx, s_t = i dx), times m / rho0.
+  void build_hydrostatic_tables(Real dx, Real m_over_rho0) {
+    nn_.assign(kTable + 1, 0);
+    tt_.assign(kTable + 1, 0);
+    const int reach = static_cast<int>(std::ceil(k_.h / dx)) + 1;
+    for (int t = 0; t <= kTable; ++t) {
+      const Real d = k_.h * t / kTable;
+      Real sn = 0, st = 0;
+      for (int k = 0; 2 * d + k * dx < k_.h; ++k) {
+        const Real dn = 2 * d + k * dx;
+        for (int i = -reach; i <= reach; ++i) {
+          const Real ds = i * dx, r = std::sqrt(dn * dn + ds * ds);
+          if (r >= k_.h) continue;
+          const Real g = -k_.gradient_factor(r);
+          sn += g * dn * dn;
+          st += g * ds * ds;
+        }
+      }
+      nn_[t] = sn * m_over_rho0;
+      tt_[t] = st * m_over_rho0;
     }
   }
 
@@ -134,15 +166,18 @@ class WallTables {
   }
   Real wall_line(Real d) const { return table(line_, d); }
   Real wall_half(Real d) const { return table(half_, d); }
+  Real wall_nn(Real d) const { return table(nn_, d); }
+  Real wall_tt(Real d) const { return table(tt_, d); }
   std::size_t bytes() const {
-    return (line_.capacity() + half_.capacity() + corner_half_.capacity() +
+    return (line_.capacity() + half_.capacity() + nn_.capacity() + tt_.capacity() +
+            corner_half_.capacity() +
             corner_line_.capacity()) *
            sizeof(Real);
   }
 
  private:
   Wendland k_;
-  std::vector<Real> line_, half_;
+  std::vector<Real> line_, half_, nn_, tt_;
   std::vector<Real> corner_half_, corner_line_;
 };
 

@@ -12,6 +12,7 @@
 
 #include "terms/wall_tables.hpp"
 #include "core/csr.hpp"
+#include "core/params.hpp"
 #include "core/types.hpp"
 #include "simd/lanes.hpp"
 #include "terms/wendland.hpp"
@@ -36,6 +37,20 @@ template <class L>
 struct PairConstants {
   L m, eps2, av, m_eta2;
 };
+template <class L>
+PairConstants<L> pair_constants(const SimParams& P) {
+  const Real hs = Real(0.5) * P.h;  // the smoothing length (support 2 hs)
+  return {simd::splat<L>(P.mass), simd::splat<L>(Real(0.01) * hs * hs),
+          simd::splat<L>(P.alpha * P.c0 * hs),  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
+          simd::splat<L>(P.mass * 2 * P.eta)};
+}
+
+// The elastic energy W3 stores per kg at rho = r rho0, B = rho0 c0^2 / 7 (its
+// pressure's work, zero at rho0): B/((g-1) rho0) (r^(g-1) - 1) + B (1/rho - 1/rho0).
+inline Real elastic_energy(Real r, Real rho0, Real B) {
+  return B / ((kTaitGamma - 1) * rho0) * (std::pow(r, kTaitGamma - 1) - 1) +
+         B * (1 / (r * rho0) - 1 / rho0);
+}
 
 // W4-W6 for one pair on the lanes of `in` (r < h), as an acceleration on i
 // (j gets minus it):

@@ -59,6 +59,9 @@ class SimParams(metaclass=_Pybind11Type):
     alpha: float  # artificial viscosity coefficient
     background_pressure: float  # added to the Tait EOS (sum clamped at 0), Pa
     spacing: float  # lattice spacing the walls mirror, m (0: a continuum)
+    continuity: bool  # density from the continuity equation (else the summation)
+    delta: float  # with continuity: density diffusion coefficient (0: none)
+    shifting: float  # with continuity: particle shifting coefficient (0: none)
     # the fluid and its particles
     h: float  # smoothing length (kernel support), m
     mass: float  # particle mass, kg per metre of depth

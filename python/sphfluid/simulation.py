@@ -76,6 +76,9 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.threads = 0 if threads is None else int(threads)
     p.cfl = scene.cfl
     p.float_pairs = scene.pair_precision == "float"
+    p.continuity = scene.density == "continuity"
+    p.delta = scene.density_diffusion
+    p.shifting = scene.shifting
     # The guard bounds the surface energy by sigma x the regions' perimeters.
     p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0

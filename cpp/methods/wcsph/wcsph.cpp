@@ -33,29 +33,19 @@ void WcsphMethod::select(unsigned features) {
   eval_fn_ = evals[features];
 }
 
-// Tait (clamped at rho0): B/((g-1) rho0) (r^(g-1) - 1) + B (1/rho - 1/rho0) per kg.
+// Tait, clamped at rho0 (W3).
 Real WcsphMethod::elastic_energy() const {
-  const Real g = wcsph::kTaitGamma, B = P_.rho0 * P_.c0 * P_.c0 / g;
+  const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
   Real elastic = 0;
-  for (Index i = 0; i < ctx_.size(); ++i) {
-    const Real rc = std::max(ctx_.ps.rho[i] / P_.rho0, Real(1));
-    elastic += P_.mass * (B / ((g - 1) * P_.rho0) * (std::pow(rc, g - 1) - 1) +
-                          B * (1 / (rc * P_.rho0) - 1 / P_.rho0));
-  }
+  for (Index i = 0; i < ctx_.size(); ++i)
+    elastic += P_.mass * wcsph::elastic_energy(std::max(ctx_.ps.rho[i] / P_.rho0, Real(1)),
+                                               P_.rho0, B);
   return elastic;
 }
 
 std::size_t WcsphMethod::bytes() const {
   return (por2_.capacity() + inv_rho_.capacity()) * sizeof(Real) + walls_.bytes() +
          surface_.bytes();
-}
-
-template <class L>
-wcsph::PairConstants<L> WcsphMethod::constants() const {
-  const Real hs = Real(0.5) * P_.h;  // the smoothing length (support 2 hs)
-  return {simd::splat<L>(P_.mass), simd::splat<L>(Real(0.01) * hs * hs),
-          simd::splat<L>(P_.alpha * P_.c0 * hs),  // Monaghan: Pi = -alpha c0 hs mu / rho_bar
-          simd::splat<L>(P_.mass * 2 * P_.eta)};
 }
 
 // Kick-drift-kick: v += dt/2 a; x += dt v (walls reflect); evaluate at the new
@@ -166,7 +156,7 @@ void WcsphMethod::forces_by_cells() {
     // four lanes a group: the pair force's arithmetic outweighs the traversal
     const PositionFrame<simd::D4> frame(ps.x.data(), P_.h);
     const wcsph::ForcePairs<simd::D4, Viscosity> pair{
-        ps.rho.data(), por2_.data(), inv_rho_.data(), {ps.v.data()}, kernel_, constants<simd::D4>()};
+        ps.rho.data(), por2_.data(), inv_rho_.data(), {ps.v.data()}, kernel_, wcsph::pair_constants<simd::D4>(P_)};
     ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pair, ps.a.data(), ctx_.team());
     return;
   }
@@ -181,7 +171,7 @@ void WcsphMethod::forces_by_lists() {
   const Index n = ps.size();
   Vec2* a = ps.a.data();
   const wcsph::ForcePairs<Real, kVisc> forces{ps.rho.data(), por2_.data(), inv_rho_.data(),
-                                              {ps.v.data()}, kernel_, constants<Real>()};
+                                              {ps.v.data()}, kernel_, wcsph::pair_constants<Real>(P_)};
   if constexpr (pairs_once(F)) {
     if (!ctx_.search.has_half_lists(n))
       throw std::logic_error("the pair-once loop needs this evaluation's half lists");
@@ -205,46 +195,17 @@ void WcsphMethod::forces_by_lists() {
 template <unsigned F>
 void WcsphMethod::add_wall_force(Index i, Vec2& f) const {
   const ParticleSet& ps = ctx_.ps;
-  wcsph::add_wall_force<(F & kViscosity) != 0>(walls_, kernel_, constants<Real>(), P_.rho0,
+  wcsph::add_wall_force<(F & kViscosity) != 0>(walls_, kernel_, wcsph::pair_constants<Real>(P_), P_.rho0,
                                                 ctx_.ghosts.row(i), por2_[i], inv_rho_[i],
                                                 ps.v[i], f);
 }
 
-// a = f + the tension (W12) + g (W13); with half > 0 also the second half-kick,
-// v += half a, each particle's as soon as its acceleration is known, into a
-// fresh buffer: a non-finite result keeps the half-step velocities.
+// a = f + the tension (W12) + g (W13); with half > 0 also the second
+// half-kick (Context::add_gravity_and_kick).
 template <unsigned F>
 void WcsphMethod::accelerations(Real half) {
-  ParticleSet& ps = ctx_.ps;
-  const Index n = ps.size();
-  const Vec2* v = ps.v.data();
-  Vec2* a = ps.a.data();
-  [[maybe_unused]] const Vec2* surface_acc = surface_.accelerations();
-  const Vec2 g = P_.gravity;
-  const bool kick = half > 0;
-  Vec2* v_new = kick ? ps.v.begin_write(n) : nullptr;
-  bool bad = false;
-#pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(|| : bad)
-  for (Index i = 0; i < n; ++i) {
-    Vec2 f = a[i];
-    if constexpr ((F & kSurfaceTension) != 0) f += surface_acc[i];
-    a[i] = f + g;
-    if (kick) {
-      v_new[i] = v[i] + half * a[i];
-      bad = bad || !v_new[i].allFinite();
-    }
-  }
+  ctx_.add_gravity_and_kick(half, (F & kSurfaceTension) != 0 ? surface_.accelerations() : nullptr);
   ctx_.timer.mark(kForces);
-  if (!kick) return;
-  if (bad) {
-    for (Index i = 0; i < n; ++i)
-      if (!v_new[i].allFinite())
-        throw InstabilityError("step " + std::to_string(ctx_.step_count() + 1) +
-                               ": particle id " + std::to_string(ps.id[i]) +
-                               " got a non-finite velocity in the second half-kick [check: "
-                               "finite] (the state kept is the half step)");
-  }
-  ps.v.commit_write();
 }
 
 }  // namespace sphfluid

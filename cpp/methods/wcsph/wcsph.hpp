@@ -63,8 +63,6 @@ class WcsphMethod final : public SphMethod {
   template <bool Viscosity> void forces_by_cells();
   template <unsigned F> void forces_by_lists();
   template <unsigned F> void add_wall_force(Index i, Vec2& f) const;
-  // The pair force's constants on lanes L (hs = h/2 the smoothing length).
-  template <class L> wcsph::PairConstants<L> constants() const;
 
   using StepFn = void(WcsphMethod&, Real, Real);
   using EvalFn = void(WcsphMethod&);

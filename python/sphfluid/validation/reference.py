@@ -20,6 +20,7 @@ __all__ = [
     "droplet_damping_rate",
     "droplet_frequency",
     "front_time_scale",
+    "ghia_cavity",
     "height_time_scale",
     "hydrostatic_pressure",
     "laplace_pressure_jump",
@@ -560,3 +561,38 @@ def _mean_abs_error(x_sim: FloatArray, y_sim: FloatArray, ref: ExperimentalSerie
         )
     y_at_ref = np.interp(ref.x[covered], x_sim, y_sim)
     return float(np.mean(np.abs(y_at_ref - ref.y[covered])))
+
+
+# --------------------------------------------------------------------------------------
+# Lid-driven cavity
+# --------------------------------------------------------------------------------------
+
+_GHIA_FILE = "ghia_1982_re100.csv"
+_GHIA_SERIES = ("u_vertical", "v_horizontal")
+
+
+def ghia_cavity(series: str) -> tuple[FloatArray, FloatArray]:
+    """Centreline velocities of the lid-driven cavity at Re = 100 (Ghia, Ghia & Shin 1982).
+
+    Ghia, U., Ghia, K. N. & Shin, C. T. (1982), J. Comput. Phys. 48:387-411, Tables I and II.
+
+    Parameters
+    ----------
+    series : {"u_vertical", "v_horizontal"}
+        ``"u_vertical"``: u / U on the vertical centreline against y / L (the lid at 1).
+        ``"v_horizontal"``: v / U on the horizontal centreline against x / L.
+
+    Returns
+    -------
+    (coordinate, velocity) : tuple of arrays, in increasing coordinate
+    """
+    if series not in _GHIA_SERIES:
+        raise ValueError(f"unknown series {series!r}; expected one of {list(_GHIA_SERIES)}")
+    text = (resources.files("sphfluid.validation") / "data" / _GHIA_FILE).read_text("utf-8")
+    rows = [row for row in csv.DictReader(line for line in io.StringIO(text)
+                                          if not line.startswith("#"))
+            if row["series"] == series]
+    coordinate = np.array([float(r["coordinate"]) for r in rows])
+    velocity = np.array([float(r["velocity"]) for r in rows])
+    order = np.argsort(coordinate)
+    return coordinate[order], velocity[order]

@@ -1,0 +1,275 @@
+// wcsph with the continuity density (docs/method-wcsph.md, W17-W22) as
+// ordered phases, each one parallel loop whose sums do not depend on the
+// thread count: kick-drift-kick (W14) with the density drifted like a
+// position (W22), around the rate (W17-W18, W20), the Tait state equation
+// without its clamp, the pair forces in the sum form (W19, W4-W6) with the
+// shifting sums (W21), and the walls (W8-W9, W20).
+#include "methods/wcsph/delta.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "integrate.hpp"
+#include "neighbours/pair_loops.hpp"
+
+namespace sphfluid {
+
+namespace {
+// Free-surface detection for the shift (W22): a particle whose kernel sum
+// (over the fluid and the walls' half-planes, times m / rho0) is below this
+// is near a free surface and shifts along it only.
+constexpr Real kSurfaceSum = 0.95;
+// The largest shift of one step, in spacings.
+constexpr Real kShiftCap = 0.2;
+// eps^2 / hs^2 of W5-W6's denominators r^2 + eps^2 (the summation's 0.01
+// under-counts the viscosity of the nearest pairs by about 2 %; the shifting
+// keeps pairs apart).
+constexpr Real kEps2 = 1e-4;
+}  // namespace
+
+DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
+    : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
+  walls_.build(P_.spacing, P_.mass / P_.rho0);
+  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  inv_wdx_ = 1 / kernel_.value(dx);
+  ctx_.ps.rho.set_kind(FieldKind::kState);  // carried from step to step
+}
+
+void DeltaWcsphMethod::select(unsigned features) {
+  static constexpr auto steps = feature_table<Steps, StepFn>();
+  static constexpr auto evals = feature_table<Evaluations, EvalFn>();
+  step_fn_ = steps[features];
+  eval_fn_ = evals[features];
+}
+
+// New particles start at rest density.
+void DeltaWcsphMethod::particles_added(Index first) {
+  ParticleSet& ps = ctx_.ps;
+  for (Index i = first; i < ps.size(); ++i) ps.rho[i] = P_.rho0;
+  shift_.clear();
+}
+
+// W3 without the clamp: below rho0 the energy of the stretched state.
+Real DeltaWcsphMethod::elastic_energy() const {
+  const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
+  Real elastic = 0;
+  for (Index i = 0; i < ctx_.size(); ++i)
+    elastic += P_.mass * wcsph::elastic_energy(ctx_.ps.rho[i] / P_.rho0, P_.rho0, B);
+  return elastic;
+}
+
+std::size_t DeltaWcsphMethod::bytes() const {
+  return (sums_.capacity() + rate_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
+         (shift_sum_.capacity() + colour_.capacity() + shift_.capacity()) * sizeof(Vec2) +
+         walls_.bytes();
+}
+
+// Kick-drift-kick with the density drifted like a position (W22): v += dt/2 a;
+// x += dt v + shift; at the new positions the rate from the half-step
+// velocities, rho += dt D, then the forces; v += dt/2 a.
+template <unsigned F>
+void DeltaWcsphMethod::step_impl(Real dt, Real dt_cap) {
+  dt = ctx_.step_size(dt, dt_cap);
+  const Real half = Real(0.5) * dt;
+  const bool shifted = P_.shifting > 0 && shift_for(dt);
+  ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, half,
+                                                           shifted ? shift_.data() : nullptr);
+  ctx_.timer.mark(kIntegrate);
+  ctx_.leave_domain();
+  ctx_.timer.mark(kDomain);
+  evaluate_kick<F>(dt, half);
+  ctx_.advance(dt);
+}
+
+template <unsigned F>
+void DeltaWcsphMethod::evaluate_kick(Real dt, Real half) {
+  ctx_.timer.start();
+  neighbours<F>();
+  density<F>(dt);
+  state();
+  forces<F>();
+  ctx_.add_gravity_and_kick(half, nullptr);
+  ctx_.timer.mark(kForces);
+}
+
+// The sort and full lists (the kernel sums go to sums_, not to the density),
+// and the walls' ghosts with their share of the kernel sums.
+template <unsigned F>
+void DeltaWcsphMethod::neighbours() {
+  ParticleSet& ps = ctx_.ps;
+  sums_.resize(ps.size());
+  ctx_.search.lists<(F & kPeriodic) != 0, false>(ps, P_.h, P_.mass / P_.rho0, ctx_.team(),
+                                                 ctx_.box, weight_, ctx_.timer, sums_.data());
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.find(ctx_.walls, ps.x.data(), ps.size(), P_.h, ctx_.team(), true);
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+      Real s = sums_[i];
+      wcsph::add_wall_density(walls_, 1, ghosts, s);
+      sums_[i] = s;
+    });
+    ctx_.timer.mark(kGhosts);
+  }
+}
+
+// The rate of each particle's density (W17-W18, the walls' W20) from the
+// half-step velocities at the new positions, then rho += dt D.
+template <unsigned F>
+void DeltaWcsphMethod::density(Real dt) {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  rate_.resize(n);
+  const Real* rho = ps.rho.data();
+  const Vec2* v = ps.v.data();
+  const Real hs = Real(0.5) * P_.h, k = P_.rho0 / (P_.c0 * P_.c0);
+  const delta::RateConstants<Real> c{P_.mass, P_.delta * hs * P_.c0, k * P_.gravity.x(),
+                                     k * P_.gravity.y()};
+  struct Visitor {
+    const Real* rho;
+    const Vec2* v;
+    const Wendland& W;
+    const delta::RateConstants<Real>& c;
+    Real* rate;
+    Real begin(Index) const { return 0; }
+    void pair(Real& d, Index i, Index j, const Vec2& r, Real r2, bool) const {
+      const Vec2 vij = v[i] - v[j];
+      Real di, dj;
+      delta::rate<Real>(true, W, c, rho[i], rho[j], r.x(), r.y(), r2, vij.x(), vij.y(), di, dj);
+      d += di;
+    }
+    void end(Index i, Real d) const { rate[i] = d; }
+  } visitor{rho, v, kernel_, c, rate_.data()};
+  const PeriodicBox& box = ctx_.box;
+  pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
+                     [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+      Real d = rate_[i];
+      delta::add_wall_rate(walls_, ghosts, rho[i], v[i], d);
+      rate_[i] = d;
+    });
+  }
+  Real* rho_w = ps.rho.data();
+  Real* rate = rate_.data();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) rho_w[i] += dt * rate[i];
+  ctx_.timer.mark(kDensity);
+}
+
+// W3 without the clamp (with the continuity density a free surface keeps its
+// density, and pressures below the background are real), and 1 / rho.
+void DeltaWcsphMethod::state() {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  const Real rho0 = P_.rho0, B = rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
+  const Real pb = P_.background_pressure;
+  inv_rho_.resize(n);
+  const Real* rho = ps.rho.data();
+  Real* p = ps.p.data();
+  Real* inv_rho = inv_rho_.data();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    const Real r = rho[i] / rho0, r2 = r * r, r3 = r2 * r;
+    p[i] = B * (r3 * r3 * r - 1) + pb;
+    inv_rho[i] = 1 / rho[i];
+  }
+  ctx_.timer.mark(kDensity);
+}
+
+// The pair forces (W19 with W4-W6), the shifting sums (W21) and the colour
+// gradient, each particle over its full list; then its walls (W8-W9, W20).
+template <unsigned F>
+void DeltaWcsphMethod::forces() {
+  constexpr bool kVisc = (F & kViscosity) != 0;
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  shift_sum_.resize(n);
+  colour_.resize(n);
+  struct Sums {
+    Vec2 f, s, c;
+  };
+  const Real* rho = ps.rho.data();
+  const Real* p = ps.p.data();
+  const Real* ir = inv_rho_.data();
+  const Vec2* v = ps.v.data();
+  wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
+  c.eps2 = kEps2 * Real(0.25) * P_.h * P_.h;
+  const Real m = P_.mass, inv_wdx = inv_wdx_;
+  const Wendland& W = kernel_;
+  auto add_pair = [&](Sums& sum, Index i, Index j, const Vec2& r, Real r2, bool) {
+    const Vec2 vij = v[i] - v[j];
+    const Real coef = delta::pressure_sum(p[i], p[j], ir[i], ir[j]);
+    Real fx, fy;
+    wcsph::PairForce<kVisc>::f(true, W, c, rho[i] + rho[j], coef, ir[i], ir[j], r.x(), r.y(), r2,
+                               vij.x(), vij.y(), fx, fy);
+    sum.f += Vec2(fx, fy);
+    const Real rl = std::sqrt(r2), vj = m * ir[j];
+    sum.s += (delta::shift_weight(W, rl, inv_wdx) * vj) * r;
+    sum.c += (W.gradient_factor(rl) * vj) * r;
+  };
+  auto finish = [&](Index i, const Sums& sum) {
+    Vec2 f = sum.f, s = sum.s;
+    if constexpr ((F & kWalls) != 0) {
+      const Row<Vec2> ghosts = ctx_.ghosts.row(i);
+      wcsph::add_wall_force<kVisc>(walls_, W, c, P_.rho0, ghosts, p[i] * ir[i] * ir[i], ir[i],
+                                   v[i], f);
+      delta::add_wall_hydrostatic(walls_, ghosts, P_.rho0, ir[i], P_.gravity, f);
+      // the walls' half-planes in the shifting sum: sum V grad W = -Psi n
+      for (const Vec2& g : ghosts) {
+        const Real gl = g.norm();
+        if (gl > 0) s -= (walls_.wall_line(gl) / gl) * g;
+      }
+    }
+    ps.a[i] = f;
+    shift_sum_[i] = s;
+    colour_[i] = sum.c;
+  };
+  struct Visitor {
+    decltype(add_pair)& on_pair;
+    decltype(finish)& on_end;
+    Sums begin(Index) const { return {Vec2::Zero(), Vec2::Zero(), Vec2::Zero()}; }
+    void pair(Sums& s, Index i, Index j, const Vec2& r, Real r2, bool mine) const {
+      on_pair(s, i, j, r, r2, mine);
+    }
+    void end(Index i, const Sums& s) const { on_end(i, s); }
+  } visitor{add_pair, finish};
+  const PeriodicBox& box = ctx_.box;
+  pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
+                     [&](const Vec2& a, const Vec2& b) { return box.delta(a, b); }, visitor);
+  ctx_.timer.mark(kForces);
+}
+
+// W22: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),
+// at most kShiftCap spacings; near a free surface (kernel sum below
+// kSurfaceSum) only its part along the surface, whose normal is minus the
+// colour gradient. Returns false where nothing shifts.
+bool DeltaWcsphMethod::shift_for(Real dt) {
+  const ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  if (shift_sum_.size() != static_cast<std::size_t>(n)) return false;
+  Real v2 = 0;
+  for (Index i = 0; i < n; ++i) v2 = std::max(v2, ps.v[i].squaredNorm());
+  const Real scale = -P_.shifting * std::sqrt(v2) * dt * Real(0.5) * P_.h;
+  if (!(scale < 0)) return false;
+  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  const Real cap = kShiftCap * dx;
+  shift_.resize(n);
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    Vec2 d = scale * shift_sum_[i];
+    if (sums_[i] < kSurfaceSum) {
+      const Real cl = colour_[i].norm();
+      if (cl > 0) {
+        const Vec2 normal = colour_[i] / cl;
+        d -= d.dot(normal) * normal;
+      } else {
+        d.setZero();
+      }
+    }
+    const Real dl = d.norm();
+    if (dl > cap) d *= cap / dl;
+    shift_[i] = d;
+  }
+  return true;
+}
+
+}  // namespace sphfluid

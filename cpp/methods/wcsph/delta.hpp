@@ -1,0 +1,81 @@
+// wcsph with the density from the continuity equation (docs/method-wcsph.md,
+// W17-W22; `solver.density: "continuity"`): the density is carried from step
+// to step and changed by its rate, with a diffusion term (delta-SPH), and the
+// particles may be shifted towards a uniform distribution. Its step as named
+// phases: the first kick and the drift (with the shift of the last
+// evaluation), the domain's edge, then at the new positions: the neighbour
+// search (with the kernel sums that find the free surface), the walls'
+// ghosts, the density rate and the density's drift, the Tait state equation,
+// the pair forces with the shifting sums, the walls' forces, and the second
+// kick. The pair loops run over full neighbour lists.
+#pragma once
+
+#include <vector>
+
+#include "context.hpp"
+#include "core/features.hpp"
+#include "methods/method.hpp"
+#include "terms/delta.hpp"
+#include "terms/wall_tables.hpp"
+#include "terms/wcsph.hpp"
+#include "terms/wendland.hpp"
+
+namespace sphfluid {
+
+class DeltaWcsphMethod final : public SphMethod {
+ public:
+  explicit DeltaWcsphMethod(Context& ctx);
+
+  void select(unsigned features) override;
+  void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
+  void evaluate() override { eval_fn_(*this); }
+  void particles_added(Index first) override;
+  Real elastic_energy() const override;
+  std::size_t bytes() const override;
+
+  struct Steps {
+    template <unsigned F>
+    static void run(DeltaWcsphMethod& m, Real dt, Real dt_cap) {
+      m.step_impl<F>(dt, dt_cap);
+    }
+  };
+  struct Evaluations {
+    template <unsigned F>
+    static void run(DeltaWcsphMethod& m) {
+      m.evaluate_kick<F>(0, 0);
+    }
+  };
+
+ private:
+  template <unsigned F> void step_impl(Real dt, Real dt_cap);
+  // The evaluation after a drift of dt (the density drifts by dt times its
+  // rate; dt = 0: none), and with half > 0 the second half-kick.
+  template <unsigned F> void evaluate_kick(Real dt, Real half);
+  template <unsigned F> void neighbours();
+  template <unsigned F> void density(Real dt);
+  void state();
+  template <unsigned F> void forces();
+  template <unsigned F> void accelerations(Real half);
+  // The shift of the next drift (W21-W22), from this evaluation's sums.
+  bool shift_for(Real dt);
+
+  using StepFn = void(DeltaWcsphMethod&, Real, Real);
+  using EvalFn = void(DeltaWcsphMethod&);
+
+  Context& ctx_;
+  const SimParams& P_;
+  Wendland kernel_;
+  WendlandWeight weight_;
+  WallTables walls_;
+  StepFn* step_fn_ = nullptr;
+  EvalFn* eval_fn_ = nullptr;
+  Real inv_wdx_;                  // 1 / W(dx), the shifting's reference
+  std::vector<Real> sums_;        // kernel sums over the fluid and walls, / rho0
+  std::vector<Real> rate_;        // d rho / dt
+  std::vector<Real> inv_rho_;     // 1 / rho
+  std::vector<Vec2> shift_sum_;   // W21's sum of each particle
+  std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
+  std::vector<Vec2> shift_;       // the next drift's shift, m
+};
+
+}  // namespace sphfluid

@@ -1,0 +1,100 @@
+// wcsph with the density from the continuity equation (docs/method-wcsph.md,
+// "Continuity density, diffusion and shifting", eqs. W17-W22), each equation
+// written once: the density rate of a pair with its diffusion term (W17-W18),
+// the pressure coefficient of the pair force in the sum form (W19, the force
+// itself is W4-W6's PairForce), the shifting sum's pair weight (W21), and the
+// walls' share of the rate and the hydrostatic part of their push (W20, from
+// the half-plane tables). Values in, values out.
+#pragma once
+
+#include <cmath>
+
+#include "core/csr.hpp"
+#include "core/types.hpp"
+#include "simd/lanes.hpp"
+#include "terms/wall_tables.hpp"
+#include "terms/wcsph.hpp"
+#include "terms/wendland.hpp"
+
+namespace sphfluid::delta {
+
+// The constants of the rate: the particle mass, delta hs c0 (the diffusion's
+// coefficient, hs = h/2 the smoothing length) and rho0 g / c0^2 (the
+// hydrostatic density gradient the diffusion leaves alone).
+template <class L>
+struct RateConstants {
+  L m, dc, hx, hy;
+};
+
+// W17-W18 for one pair on the lanes of `in` (r < h): the rates of i and j.
+//   continuity (the rho_i div v form):  D_i += rho_i V_j v_ij . grad W_ij,
+//                                       D_j += rho_j V_i v_ij . grad W_ij
+//   diffusion (Molteni & Colagrossi 2009, with the hydrostatic part taken out
+//   as Fourtakas et al. 2019 do, linearised):
+//     psi_ij = 2 [(rho_j - rho_i) + rho0 g . r_ij / c0^2],
+//     D_i += delta hs c0 psi_ij (r_ji . grad W_ij) / r^2 V_j,  D_j gets the
+//     same with psi_ji = -psi_ij and V_i;
+// with grad W_ij = F r_ij, r_ji . grad W_ij / r^2 = -F. V = m / rho.
+template <class L>
+SPHFLUID_INLINE void rate(simd::Mask<L> in, const Wendland& W, const RateConstants<L>& c,
+                          L rho_i, L rho_j, L dx, L dy, L r2, L vijx, L vijy, L& di, L& dj) {
+  const L zero = simd::zero<L>();
+  const L F = W.gradient_factor(simd::sqrt(r2));
+  const L vg = F * simd::fmadd(vijx, dx, vijy * dy);
+  const L vi = simd::maskz_div(in, c.m, rho_i), vj = simd::maskz_div(in, c.m, rho_j);
+  const L psi = simd::splat<L>(2) * (rho_j - rho_i + simd::fmadd(c.hx, dx, c.hy * dy));
+  const L t = zero - c.dc * psi * F;
+  di = simd::maskz(in, (rho_i * vg + t) * vj);
+  dj = simd::maskz(in, (rho_j * vg - t) * vi);
+}
+
+// W19: the pressure coefficient of the pair force in the sum form,
+// (p_i + p_j) / (rho_i rho_j), which takes W4's p_i/rho_i^2 + p_j/rho_j^2
+// in PairForce (terms/wcsph.hpp); ir = 1 / rho.
+template <class L>
+SPHFLUID_INLINE L pressure_sum(L p_i, L p_j, L ir_i, L ir_j) {
+  return (p_i + p_j) * ir_i * ir_j;
+}
+
+// W21: the shifting sum's weight of a pair, [1 + R (W_ij / W(dx))^4] F (its
+// gradient part; grad W = F r_ij), R = 0.2 (Sun et al. 2017, after Monaghan's
+// anti-clumping term), inv_wdx = 1 / W(dx).
+constexpr Real kShiftR = 0.2;
+template <class L>
+SPHFLUID_INLINE L shift_weight(const Wendland& W, L r, L inv_wdx) {
+  const L w = W.value_of(r) * inv_wdx, w2 = w * w;
+  return simd::fmadd(simd::splat<L>(kShiftR), w2 * w2, simd::splat<L>(1)) * W.gradient_factor(r);
+}
+
+// W20: the walls' share of a particle's rate and the hydrostatic part of their
+// push. A ghost's half-plane is the particle's lattice mirrored in the wall
+// (W7), which moves as the particle's mirror image: the rate is the time
+// derivative of W7's share, rho_i/rho0 d(rho0 Phi(d))/dt = -2 rho_i Psi(d) v_i . n,
+// with n the unit normal towards the particle (a corner's quadrant once); the
+// half-plane's pressure is the particle's
+// extrapolated along gravity, p_j = p_i + rho_i g . (x_j - x_i) (Adami, Hu &
+// Adams 2012), which adds to W8's push
+//   a_i += (rho0 / rho_i) [-(g . n) Psi_nn(d) n - (g . t) Psi_tt(d) t],
+// t the wall's tangent (the corners' quadrants are not taken out of this part).
+inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, const Vec2& vi,
+                          Real& d) {
+  for (const Vec2& r : ghosts) {
+    const Real rl = r.norm();
+    if (rl > 0) d -= 2 * rho_i * t.wall_line(rl) * vi.dot(r) / rl;
+  }
+  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    d += 2 * rho_i *
+         (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
+  });
+}
+inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, Real rho0, Real inv_i,
+                                 const Vec2& g, Vec2& f) {
+  for (const Vec2& r : ghosts) {
+    const Real rl = r.norm();
+    if (!(rl > 0)) continue;
+    const Vec2 n = r / rl, tg(-n.y(), n.x());
+    f += (rho0 * inv_i) * (-g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg);
+  }
+}
+
+}  // namespace sphfluid::delta
