@@ -248,3 +248,16 @@ def test_front_error_skips_points_beyond_the_tank():
     z = np.minimum(np.interp(t * scale, data.x, data.y, left=1.0), 4.0)  # a 4 a tank stops it
     assert ref.mean_front_error(t, z, 1.0) > 0.005  # the last point (Z = 4.11) counts
     assert ref.mean_front_error(t, z, 1.0, max_z=4.0) < 1e-12
+
+
+def test_ghia_cavity_centrelines_load_in_order():
+    from sphfluid.validation.reference import ghia_cavity
+
+    y, u = ghia_cavity("u_vertical")
+    x, v = ghia_cavity("v_horizontal")
+    assert len(y) == 17 and len(x) == 17
+    assert (np.diff(y) > 0).all() and (np.diff(x) > 0).all()
+    assert u[-1] == 1.0 and u[0] == 0.0  # the lid moves at U; the floor rests
+    assert u.min() == pytest.approx(-0.21090) and v.min() == pytest.approx(-0.24533)
+    with pytest.raises(ValueError, match="unknown series"):
+        ghia_cavity("w")
