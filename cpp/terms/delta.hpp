@@ -1,5 +1,5 @@
 // wcsph with the density from the continuity equation (docs/method-wcsph.md,
-// "Continuity density, diffusion and shifting", eqs. W17-W22), each equation
+// "Continuity density, diffusion and shifting", eqs. W17-W23), each equation
 // written once: the density rate of a pair with its diffusion term (W17-W18),
 // the pressure coefficient of the pair force in the sum form (W19, the force
 // itself is W4-W6's PairForce), the shifting sum's pair weight (W21), and the
@@ -67,24 +67,25 @@ SPHFLUID_INLINE L shift_weight(const Wendland& W, L r, L inv_wdx) {
 }
 
 // W20: the walls' share of a particle's rate and the hydrostatic part of their
-// push. A ghost's half-plane is the particle's lattice mirrored in the wall
-// (W7), which moves as the particle's mirror image: the rate is the time
-// derivative of W7's share, rho_i/rho0 d(rho0 Phi(d))/dt = -2 rho_i Psi(d) v_i . n,
-// with n the unit normal towards the particle (a corner's quadrant once); the
-// half-plane's pressure is the particle's
+// push. A ghost stands for the fluid's lattice continued through the wall in
+// rows fixed to it (WallTables with static rows), at rest: the rate is
+// rho_i V v_i . sum grad W = -rho_i Psi(d) v_i . n, with n the unit normal
+// towards the particle (a corner's quadrant once), the time derivative of
+// the rows' share of a summation density; their pressure is the particle's
 // extrapolated along gravity, p_j = p_i + rho_i g . (x_j - x_i) (Adami, Hu &
 // Adams 2012), which adds to W8's push
 //   a_i += (rho0 / rho_i) [-(g . n) Psi_nn(d) n - (g . t) Psi_tt(d) t],
-// t the wall's tangent (the corners' quadrants are not taken out of this part).
+// t the wall's tangent; in a corner the quadrant both half-planes counted is
+// taken out once: (rho0 / rho_i) [(g1 C11 + g2 C12) n1 + (g1 C12 + g2 C22) n2],
+// g_k = g . n_k, C the quadrant's sums (WallTables::corner_11, corner_12).
 inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, const Vec2& vi,
                           Real& d) {
   for (const Vec2& r : ghosts) {
     const Real rl = r.norm();
-    if (rl > 0) d -= 2 * rho_i * t.wall_line(rl) * vi.dot(r) / rl;
+    if (rl > 0) d -= rho_i * t.wall_line(rl) * vi.dot(r) / rl;
   }
   wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-    d += 2 * rho_i *
-         (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
+    d += rho_i * (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
   });
 }
 inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, Real rho0, Real inv_i,
@@ -95,6 +96,12 @@ inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, Real rho
     const Vec2 n = r / rl, tg(-n.y(), n.x());
     f += (rho0 * inv_i) * (-g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg);
   }
+  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    const Vec2 n1 = r1 / d1, n2 = r2 / d2;
+    const Real g1 = g.dot(n1), g2 = g.dot(n2), c12 = t.corner_12(d1, d2);
+    f += (rho0 * inv_i) * ((g1 * t.corner_11(d1, d2) + g2 * c12) * n1 +
+                           (g1 * c12 + g2 * t.corner_11(d2, d1)) * n2);
+  });
 }
 
 }  // namespace sphfluid::delta

@@ -33,7 +33,14 @@ class WallTables {
   // is instead the mirror image of the square lattice of particles of mass m,
   // so that a lattice resting against a wall has exactly its interior density.
   // Both tables are divided by rho0 (the caller multiplies by it).
-  void build(Real dx = 0, Real m_over_rho0 = 0) {
+  // With static_rows, the wall's fluid is instead rows fixed to the wall, at
+  // dx/2, 3 dx/2, ... beyond it (a particle at distance d sees them at
+  // d + dx/2 + k dx): the fluid's lattice continued through the wall for any
+  // support, not only the particle's own image (which coincides with it for
+  // the rows within h = 2 dx of the wall).
+  void build(Real dx = 0, Real m_over_rho0 = 0, bool static_rows = false) {
+    static_rows_ = static_rows && dx > 0;
+    dx_ = dx;
     build_corner_tables(dx, m_over_rho0);
     // The hydrostatic push's tables: a lattice, or for the continuum a fine one.
     if (dx > 0) {
@@ -73,8 +80,8 @@ class WallTables {
     for (int t = 0; t <= kTable; ++t) {
       const Real d = k_.h * t / kTable;
       Real sw = 0, sg = 0;
-      for (int k = 0; 2 * d + k * dx < k_.h; ++k) {
-        const Real dn = 2 * d + k * dx;
+      for (int k = 0; first(d) + k * dx < k_.h; ++k) {
+        const Real dn = first(d) + k * dx;
         for (int i = -reach; i <= reach; ++i) {
           const Real r = std::sqrt(dn * dn + (i * dx) * (i * dx));
           if (r >= k_.h) continue;
@@ -97,8 +104,8 @@ class WallTables {
     for (int t = 0; t <= kTable; ++t) {
       const Real d = k_.h * t / kTable;
       Real sn = 0, st = 0;
-      for (int k = 0; 2 * d + k * dx < k_.h; ++k) {
-        const Real dn = 2 * d + k * dx;
+      for (int k = 0; first(d) + k * dx < k_.h; ++k) {
+        const Real dn = first(d) + k * dx;
         for (int i = -reach; i <= reach; ++i) {
           const Real ds = i * dx, r = std::sqrt(dn * dn + ds * ds);
           if (r >= k_.h) continue;
@@ -121,22 +128,27 @@ class WallTables {
     const int side = kCorner + 1;
     corner_half_.assign(static_cast<std::size_t>(side) * side, 0);
     corner_line_.assign(static_cast<std::size_t>(side) * side, 0);
+    corner_11_.assign(static_cast<std::size_t>(side) * side, 0);
+    corner_12_.assign(static_cast<std::size_t>(side) * side, 0);
     const int quad = 32;         // continuum: midpoints per axis
     const Real cell = k_.h / quad;  // over [0, h]^2 beyond the corner
     for (int a = 0; a <= kCorner; ++a)
       for (int b = 0; b <= kCorner; ++b) {
         const Real d1 = k_.h * a / kCorner, d2 = k_.h * b / kCorner;
-        Real sw = 0, sg = 0;
+        Real sw = 0, sg = 0, s11 = 0, s12 = 0;
         auto add = [&](Real u, Real v, Real weight) {  // u, v: along normals 1, 2
           const Real r = std::sqrt(u * u + v * v);
           if (r >= k_.h) return;
+          const Real g = -k_.gradient_factor(r);
           sw += weight * k_.value(r);
-          sg += weight * -k_.gradient_factor(r) * u;
+          sg += weight * g * u;
+          s11 += weight * g * u * u;
+          s12 += weight * g * u * v;
         };
         if (dx > 0) {
-          for (int k = 0; 2 * d1 + k * dx < k_.h; ++k)
-            for (int l = 0; 2 * d2 + l * dx < k_.h; ++l)
-              add(2 * d1 + k * dx, 2 * d2 + l * dx, m_over_rho0);
+          for (int k = 0; first(d1) + k * dx < k_.h; ++k)
+            for (int l = 0; first(d2) + l * dx < k_.h; ++l)
+              add(first(d1) + k * dx, first(d2) + l * dx, m_over_rho0);
         } else {
           for (int k = 0; k < quad; ++k)
             for (int l = 0; l < quad; ++l)
@@ -144,6 +156,8 @@ class WallTables {
         }
         corner_half_[static_cast<std::size_t>(a) * side + b] = sw;
         corner_line_[static_cast<std::size_t>(a) * side + b] = sg;
+        corner_11_[static_cast<std::size_t>(a) * side + b] = s11;
+        corner_12_[static_cast<std::size_t>(a) * side + b] = s12;
       }
   }
   // Bilinear in the corner tables; 0 once either distance reaches h.
@@ -157,6 +171,10 @@ class WallTables {
   }
   Real corner_half(Real d1, Real d2) const { return corner(corner_half_, d1, d2); }
   Real corner_line(Real d1, Real d2) const { return corner(corner_line_, d1, d2); }
+  // The quadrant's sums of -W'/r s_1^2 and -W'/r s_1 s_2 (s_k along normal k),
+  // for the hydrostatic push (terms/delta.hpp, W20).
+  Real corner_11(Real d1, Real d2) const { return corner(corner_11_, d1, d2); }
+  Real corner_12(Real d1, Real d2) const { return corner(corner_12_, d1, d2); }
 
   Real table(const std::vector<Real>& t, Real d) const {
     const Real f = d * k_.inv_h * kTable;
@@ -164,21 +182,26 @@ class WallTables {
     const int k = static_cast<int>(f);
     return t[k] + (f - k) * (t[k + 1] - t[k]);
   }
+  // The nearest row of the wall's fluid, at normal distance first(d) from a
+  // particle at distance d: its mirror image, or the first static row.
+  Real first(Real d) const { return static_rows_ ? d + Real(0.5) * dx_ : 2 * d; }
   Real wall_line(Real d) const { return table(line_, d); }
   Real wall_half(Real d) const { return table(half_, d); }
   Real wall_nn(Real d) const { return table(nn_, d); }
   Real wall_tt(Real d) const { return table(tt_, d); }
   std::size_t bytes() const {
     return (line_.capacity() + half_.capacity() + nn_.capacity() + tt_.capacity() +
-            corner_half_.capacity() +
-            corner_line_.capacity()) *
+            corner_half_.capacity() + corner_line_.capacity() + corner_11_.capacity() +
+            corner_12_.capacity()) *
            sizeof(Real);
   }
 
  private:
   Wendland k_;
+  bool static_rows_ = false;
+  Real dx_ = 0;
   std::vector<Real> line_, half_, nn_, tt_;
-  std::vector<Real> corner_half_, corner_line_;
+  std::vector<Real> corner_half_, corner_line_, corner_11_, corner_12_;
 };
 
 }  // namespace sphfluid

@@ -150,7 +150,7 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W22)
+    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W23)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float = 0.0  # wcsph with continuity: particle shifting coefficient (0: none)
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
@@ -367,7 +367,7 @@ class _Validator:
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
-        self.check_continuity(solver, fluid.sigma, walls)
+        self.check_continuity(solver, fluid.sigma)
         self.check_regions_inside(domain, regions)
         if res.dx and regions and not self.problems:
             self.check_particle_budget(regions, res.dx)
@@ -655,13 +655,10 @@ class _Validator:
                           f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
                           f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
 
-    def check_continuity(self, solver: _Solver, sigma: float | None, walls: list) -> None:
-        """wcsph's continuity density runs without walls and tension for now."""
+    def check_continuity(self, solver: _Solver, sigma: float | None) -> None:
+        """wcsph's continuity density runs without surface tension for now."""
         if not (solver.method == "wcsph" and solver.density == "continuity"):
             return
-        if walls:
-            self.fail("solver.density", '"continuity" runs without walls for now (its wall '
-                      'model is being validated; docs/method-wcsph.md); use "summation"')
         if sigma:
             self.fail("solver.density", "surface tension runs with the summation density "
                       'only (docs/method-wcsph.md); remove "density" or "surface_tension"')

@@ -57,9 +57,13 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
         p.alpha = scene.artificial_viscosity
         p.background_pressure = scene.background_pressure
         p.spacing = scene.spacing  # the walls mirror the particles' lattice
-        p.mass = (scene.particle_mass if scene.particle_mass is not None
-                  else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
-                                                  scene.smoothing_length, "wendland"))
+        if scene.particle_mass is not None:
+            p.mass = scene.particle_mass
+        elif scene.density == "continuity":  # the density is carried, not summed: a
+            p.mass = scene.rest_density * scene.spacing**2  # particle's share of the area
+        else:
+            p.mass = _core.kernels.lattice_mass(scene.rest_density, scene.spacing,
+                                                scene.smoothing_length, "wendland")
     else:
         p.mass = (scene.particle_mass if scene.particle_mass is not None
                   else _core.kernels.lattice_mass(scene.rest_density, scene.spacing,

@@ -1,4 +1,4 @@
-// wcsph with the continuity density (docs/method-wcsph.md, W17-W22) as
+// wcsph with the continuity density (docs/method-wcsph.md, W17-W23) as
 // ordered phases, each one parallel loop whose sums do not depend on the
 // thread count: kick-drift-kick (W14) with the density drifted like a
 // position (W22), around the rate (W17-W18, W20), the Tait state equation
@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 #include "integrate.hpp"
 #include "neighbours/pair_loops.hpp"
@@ -29,7 +31,7 @@ constexpr Real kEps2 = 1e-4;
 
 DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
     : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
-  walls_.build(P_.spacing, P_.mass / P_.rho0);
+  walls_.build(P_.spacing, P_.mass / P_.rho0, true);  // rows fixed to the wall (W20)
   const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
   inv_wdx_ = 1 / kernel_.value(dx);
   ctx_.ps.rho.set_kind(FieldKind::kState);  // carried from step to step
@@ -42,11 +44,37 @@ void DeltaWcsphMethod::select(unsigned features) {
   eval_fn_ = evals[features];
 }
 
-// New particles start at rest density.
+// New particles start at the density of the hydrostatic pressure at their
+// depth below the fluid above them (W23): the highest particle of their
+// column (one spacing wide, across gravity) is half a spacing below the
+// surface. Without gravity, or with a periodic axis along it, at rho0.
 void DeltaWcsphMethod::particles_added(Index first) {
   ParticleSet& ps = ctx_.ps;
-  for (Index i = first; i < ps.size(); ++i) ps.rho[i] = P_.rho0;
+  const Index n = ps.size();
   shift_.clear();
+  const Real gl = P_.gravity.norm();
+  const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
+                          (P_.periodic_y && P_.gravity.y() != 0);
+  if (!(gl > 0) || along_seam) {
+    for (Index i = first; i < n; ++i) ps.rho[i] = P_.rho0;
+    return;
+  }
+  const Vec2 up = -P_.gravity / gl, across(up.y(), -up.x());
+  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  auto column = [&](Index i) {
+    return static_cast<std::int64_t>(std::floor(ps.x[i].dot(across) / dx));
+  };
+  std::unordered_map<std::int64_t, Real> top;
+  for (Index i = 0; i < n; ++i) {
+    const Real z = ps.x[i].dot(up);
+    auto [it, fresh] = top.emplace(column(i), z);
+    if (!fresh) it->second = std::max(it->second, z);
+  }
+  const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
+  for (Index i = first; i < n; ++i) {
+    const Real depth = top[column(i)] - ps.x[i].dot(up) + Real(0.5) * dx;
+    ps.rho[i] = P_.rho0 * std::pow(1 + P_.rho0 * gl * depth / B, 1 / wcsph::kTaitGamma);
+  }
 }
 
 // W3 without the clamp: below rho0 the energy of the stretched state.
@@ -71,7 +99,7 @@ template <unsigned F>
 void DeltaWcsphMethod::step_impl(Real dt, Real dt_cap) {
   dt = ctx_.step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
-  const bool shifted = P_.shifting > 0 && shift_for(dt);
+  const bool shifted = P_.shifting > 0 && shift_for<F>(dt);
   ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, half,
                                                            shifted ? shift_.data() : nullptr);
   ctx_.timer.mark(kIntegrate);
@@ -238,10 +266,13 @@ void DeltaWcsphMethod::forces() {
   ctx_.timer.mark(kForces);
 }
 
-// W22: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),
+// W21: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),
 // at most kShiftCap spacings; near a free surface (kernel sum below
 // kSurfaceSum) only its part along the surface, whose normal is minus the
-// colour gradient. Returns false where nothing shifts.
+// colour gradient; none within h of a wall (a shift moves no density, and the
+// walls' share of it follows the flow's velocity alone). Returns false where
+// nothing shifts.
+template <unsigned F>
 bool DeltaWcsphMethod::shift_for(Real dt) {
   const ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
@@ -256,6 +287,10 @@ bool DeltaWcsphMethod::shift_for(Real dt) {
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
     Vec2 d = scale * shift_sum_[i];
+    if constexpr ((F & kWalls) != 0) {
+      const Row<Vec2> g = ctx_.ghosts.row(i);
+      if (g.begin() != g.end()) d.setZero();  // within h of a wall: none
+    }
     if (sums_[i] < kSurfaceSum) {
       const Real cl = colour_[i].norm();
       if (cl > 0) {

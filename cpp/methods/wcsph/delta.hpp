@@ -1,5 +1,5 @@
 // wcsph with the density from the continuity equation (docs/method-wcsph.md,
-// W17-W22; `solver.density: "continuity"`): the density is carried from step
+// W17-W23; `solver.density: "continuity"`): the density is carried from step
 // to step and changed by its rate, with a diffusion term (delta-SPH), and the
 // particles may be shifted towards a uniform distribution. Its step as named
 // phases: the first kick and the drift (with the shift of the last
@@ -57,7 +57,7 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void forces();
   template <unsigned F> void accelerations(Real half);
   // The shift of the next drift (W21-W22), from this evaluation's sums.
-  bool shift_for(Real dt);
+  template <unsigned F> bool shift_for(Real dt);
 
   using StepFn = void(DeltaWcsphMethod&, Real, Real);
   using EvalFn = void(DeltaWcsphMethod&);
