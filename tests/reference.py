@@ -140,11 +140,23 @@ def delta_rate(x, v, rho, *, h, m, rho0, c0, delta, gravity=(0.0, -9.81), period
     return rate
 
 
+def laplacian_sums(x, rho, *, h, m, period=None):
+    """sum_j V_j F_ij r_ij^2 of each particle (W24; grad W = F r)."""
+    r = separations(x, period)
+    r2 = (r**2).sum(-1)
+    rl = np.sqrt(r2)
+    F = np.where(rl < h, -140.0 / (np.pi * h**4) * np.clip(1.0 - rl / h, 0.0, None) ** 3, 0.0)
+    np.fill_diagonal(F, 0.0)
+    return (F * r2 * (m / rho)[None, :]).sum(1)
+
+
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
-                 period=None, background_pressure=0.0):
+                 period=None, background_pressure=0.0, lap_sums=None):
     """Pressure and acceleration of wcsph with the continuity density and no
-    walls (W19 with W4-W6): Tait without the clamp, the sum form
-    (p_i + p_j)/(rho_i rho_j) of the pressure term, eps^2 = 1e-4 hs^2."""
+    walls (W19 with W4-W5, W24): Tait without the clamp, the sum form
+    (p_i + p_j)/(rho_i rho_j) of the pressure term, and the viscous term
+    2 m eta/(rho_i rho_j) F_ij v_ij (c_i + c_j)/2 with c = -2 / lap_sums
+    (laplacian_sums of these positions and densities by default)."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     B = rho0 * c0**2 / 7.0
@@ -152,14 +164,19 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     gw = wendland_grad(r, h)
     vij = v[:, None, :] - v[None, :, :]
     hs = 0.5 * h
-    eps2 = 1e-4 * hs**2
+    eps2 = 0.01 * hs**2
     vr = (vij * r).sum(-1)
     rho_bar = 0.5 * (rho[:, None] + rho[None, :])
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
     coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) + pi_ij
     a = -(m * coef[..., None] * gw).sum(1)
     if eta > 0:
-        rg = (r * gw).sum(-1)
-        visc = (m * 2 * eta / (rho[:, None] * rho[None, :]) * rg / (r2 + eps2))[..., None] * vij
-        a += visc.sum(1)
+        if lap_sums is None:
+            lap_sums = laplacian_sums(x, rho, h=h, m=m, period=period)
+        c = np.where(lap_sums < 0, -2.0 / np.where(lap_sums < 0, lap_sums, -1.0), 1.0)
+        rl = np.sqrt(r2)
+        F = np.where(rl < h, -140.0 / (np.pi * h**4) * np.clip(1.0 - rl / h, 0.0, None) ** 3,
+                     0.0)
+        k = m * 2 * eta / (rho[:, None] * rho[None, :]) * F * 0.5 * (c[:, None] + c[None, :])
+        a += (k[..., None] * vij).sum(1)
     return p, a + np.asarray(gravity)

@@ -8,7 +8,7 @@ import pytest
 import sphfluid
 from sphfluid import _core
 from sphfluid.scene import SceneError
-from reference import delta_forces, delta_rate
+from reference import delta_forces, delta_rate, laplacian_sums
 
 H, M, RHO0, C0 = 0.1, 0.6, 1000.0, 20.0
 
@@ -49,7 +49,9 @@ def test_one_step_equals_brute_force(alpha, eta, delta):
                    period=period)
     assert np.abs(d).max() > 100  # the rate matters at this dt
     rho1 = rho + dt * d
-    p1, a1 = delta_forces(x1, vh, rho1, **kw)
+    # W24's sums come from the rate's loop, with the densities before their drift
+    p1, a1 = delta_forces(x1, vh, rho1, **kw,
+                          lap_sums=laplacian_sums(x1, rho, h=H, m=M, period=period))
     o = np.argsort(s.ids)
     np.testing.assert_allclose(s.positions[o], x1, rtol=0, atol=1e-12)
     np.testing.assert_allclose(s.densities[o], rho1, rtol=1e-12)
@@ -155,8 +157,13 @@ def test_floor_terms_equal_the_rows_they_stand_for():
     o = np.argsort(s.ids)
     rho = s.densities[o].copy()
     kw = dict(h=h, m=m, rho0=RHO0, c0=c0, alpha=0.2, eta=0.3, gravity=g)
-    pr, a = delta_forces(x, v, rho, **kw)
-    hs, eps2 = 0.5 * h, 1e-4 * (0.5 * h) ** 2
+    lap = laplacian_sums(x, rho, h=h, m=m)
+    for i in np.flatnonzero(x[:, 1] < h):  # W24: the rows' share
+        rows = wall_rows(x[i], x[i, 1], dx, h)
+        rl = np.hypot(*rows.T)
+        lap[i] += (m / RHO0 * -140.0 / (np.pi * h**4) * (1 - rl / h) ** 3 * rl**2).sum()
+    pr, a = delta_forces(x, v, rho, **kw, lap_sums=lap)
+    hs, eps2 = 0.5 * h, 0.01 * (0.5 * h) ** 2
     for i in range(n):
         d = x[i, 1]
         if d >= h:
@@ -167,14 +174,20 @@ def test_floor_terms_equal_the_rows_they_stand_for():
         # of it along g: p_j - p_i = rho_i g . (x_j - x_i) = -rho_i g . r_ij
         coef = 2 * max(pr[i], 0.0) / rho[i] ** 2 - (rows @ np.asarray(g)) / rho[i]
         a[i] -= m * (coef[:, None] * gw).sum(0)
-        # W9: one particle at rest at the foot of the perpendicular
+        # W9's artificial viscosity: one particle at rest at the foot of the
+        # perpendicular
         r = np.array([0.0, d])
         r2 = d * d
         gwg = wendland_grad(r, h)
         vr = v[i] @ r
         if vr < 0:
             a[i] += m * 0.2 * c0 * hs * vr / (r2 + eps2) / rho[i] * gwg
-        a[i] += m * 2 * 0.3 / rho[i] ** 2 * (r @ gwg) / (r2 + eps2) * v[i]
+        # W25: the rows with Morris et al.'s extrapolated velocities, -(d_B/d) v_i
+        rl = np.hypot(*rows.T)
+        F = -140.0 / (np.pi * h**4) * (1 - rl / h) ** 3
+        beta = rows[:, 1] / max(d, 0.5 * dx)
+        c_i = -2.0 / lap[i]
+        a[i] += 2 * 0.3 * c_i / rho[i] * (m / RHO0 * F * beta).sum() * v[i]
     np.testing.assert_allclose(s.accelerations[o], a, rtol=0, atol=1e-4 * np.abs(a).max())
     dt = 1e-4
     s.step(dt)

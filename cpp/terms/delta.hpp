@@ -48,6 +48,42 @@ SPHFLUID_INLINE void rate(simd::Mask<L> in, const Wendland& W, const RateConstan
   dj = simd::maskz(in, (rho_j * vg - t) * vi);
 }
 
+// W24: the normalisation of the viscous term (the Laplacian of Morris et al.
+// 1997 with (r . grad W) / r^2 = F exactly): per particle
+//   c_i = -2 / sum_j V_j F_ij r_ij^2,
+// the factor that makes the operator exact for the isotropic part of a
+// quadratic field on the particles' actual arrangement (the sum is -2 on a
+// fine regular one; in the spirit of the corrected Laplacians of Schwaiger
+// 2008 and Fatehi & Manzari 2011); a pair takes (c_i + c_j) / 2. The walls'
+// rows add -(Psi_nn + Psi_tt) per ghost. laplacian_sum is a pair's share.
+template <class L>
+SPHFLUID_INLINE L laplacian_sum(L F, L r2, L v_j) {
+  return v_j * F * r2;
+}
+inline Real laplacian_norm(Real sum) { return sum < 0 ? Real(-2) / sum : Real(1); }
+inline void add_wall_laplacian(const WallTables& t, Row<Vec2> ghosts, Real& sum) {
+  for (const Vec2& r : ghosts) {
+    const Real rl = r.norm();
+    sum -= t.wall_nn(rl) + t.wall_tt(rl);
+  }
+  wcsph::for_each_corner(ghosts, [&](const Vec2&, Real d1, const Vec2&, Real d2) {
+    sum += t.corner_11(d1, d2) + t.corner_11(d2, d1);
+  });
+}
+
+// W25: the walls' no-slip friction on a particle with velocity v_i (relative to
+// the wall), normalisation c_i (W24) and 1/rho_i: W24's viscous term summed
+// over the rows with Morris et al.'s extrapolated velocities (WallTables::
+// wall_friction), a = -2 eta c_i / rho_i Psi_f(d) v_i per ghost (the rows'
+// density rho0 cancels their volume m / rho0); the corners' quadrant is not
+// taken out.
+inline void add_wall_friction(const WallTables& t, Row<Vec2> ghosts, Real eta, Real c_i,
+                              Real inv_i, const Vec2& vi, Vec2& f) {
+  Real sum = 0;
+  for (const Vec2& r : ghosts) sum += t.wall_friction(r.norm());
+  f -= (2 * eta * c_i * inv_i * sum) * vi;
+}
+
 // W19: the pressure coefficient of the pair force in the sum form,
 // (p_i + p_j) / (rho_i rho_j), which takes W4's p_i/rho_i^2 + p_j/rho_j^2
 // in PairForce (terms/wcsph.hpp); ir = 1 / rho.

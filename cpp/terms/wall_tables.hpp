@@ -100,22 +100,26 @@ class WallTables {
   void build_hydrostatic_tables(Real dx, Real m_over_rho0) {
     nn_.assign(kTable + 1, 0);
     tt_.assign(kTable + 1, 0);
+    friction_.assign(kTable + 1, 0);
     const int reach = static_cast<int>(std::ceil(k_.h / dx)) + 1;
     for (int t = 0; t <= kTable; ++t) {
       const Real d = k_.h * t / kTable;
-      Real sn = 0, st = 0;
+      Real sn = 0, st = 0, sf = 0;
       for (int k = 0; first(d) + k * dx < k_.h; ++k) {
         const Real dn = first(d) + k * dx;
+        const Real beta = dn / std::max(d, Real(0.5) * dx);
         for (int i = -reach; i <= reach; ++i) {
           const Real ds = i * dx, r = std::sqrt(dn * dn + ds * ds);
           if (r >= k_.h) continue;
           const Real g = -k_.gradient_factor(r);
           sn += g * dn * dn;
           st += g * ds * ds;
+          sf += g * beta;
         }
       }
       nn_[t] = sn * m_over_rho0;
       tt_[t] = st * m_over_rho0;
+      friction_[t] = sf * m_over_rho0;
     }
   }
 
@@ -188,9 +192,19 @@ class WallTables {
   Real wall_line(Real d) const { return table(line_, d); }
   Real wall_half(Real d) const { return table(half_, d); }
   Real wall_nn(Real d) const { return table(nn_, d); }
+  // The no-slip friction's sum of -W'/r beta over the rows, times m / rho0:
+  // Morris, Fox & Zhu (1997) give a row at distance d_B behind the wall the
+  // velocity -(d_B / d) v of a particle at d in front, so the pair's relative
+  // velocity is (1 + d_B / d) v = (s_n / d) v; here beta = s_n / max(d, dx/2)
+  // (a particle nearer the wall than the first lattice row is extrapolated
+  // from there; Morris et al. cap beta at 1.5 instead, which with a support of
+  // 3 dx leaves the first row slipping: Poiseuille's centreline 3.6 % fast at
+  // 20 across).
+  Real wall_friction(Real d) const { return table(friction_, d); }
   Real wall_tt(Real d) const { return table(tt_, d); }
   std::size_t bytes() const {
     return (line_.capacity() + half_.capacity() + nn_.capacity() + tt_.capacity() +
+            friction_.capacity() +
             corner_half_.capacity() + corner_line_.capacity() + corner_11_.capacity() +
             corner_12_.capacity()) *
            sizeof(Real);
@@ -200,7 +214,7 @@ class WallTables {
   Wendland k_;
   bool static_rows_ = false;
   Real dx_ = 0;
-  std::vector<Real> line_, half_, nn_, tt_;
+  std::vector<Real> line_, half_, nn_, tt_, friction_;
   std::vector<Real> corner_half_, corner_line_, corner_11_, corner_12_;
 };
 

@@ -58,12 +58,16 @@ inline Real elastic_energy(Real r, Real rho0, Real B) {
 //       + 2 m eta / (rho_i rho_j) (r_ij . grad W) / (r^2 + eps^2) v_ij,
 // Pi_ij = -alpha c0 hs (v_ij . r_ij) / (r^2 + eps^2) * 2 / (rho_i + rho_j) on
 // approaching pairs (v_ij . r_ij < 0), else 0; grad W = grad (1 - q)^3 r_ij.
-template <bool Viscosity>
+// With Normalised (the continuity density's W24), the viscous term is instead
+//   2 m eta / (rho_i rho_j) F_ij v_ij * lap_ij,
+// (r_ij . grad W) / r^2 = F_ij exactly, with no eps, and lap_ij the pair's
+// normalisation (terms/delta.hpp).
+template <bool Viscosity, bool Normalised = false>
 struct PairForce {
   template <class L>
   static SPHFLUID_INLINE void f(simd::Mask<L> in, const Wendland& W, const PairConstants<L>& c,
                                 L rho_sum, L por2_sum, L ir_i, L ir_j, L dx, L dy, L r2, L vijx,
-                                L vijy, L& fx, L& fy) {
+                                L vijy, L& fx, L& fy, L lap_ij = simd::zero<L>()) {
     const L zero = simd::zero<L>();
     const L s = W.gradient_factor(simd::sqrt(r2));
     const L gwx = s * dx, gwy = s * dy;
@@ -80,8 +84,12 @@ struct PairForce {
     fx = simd::maskz_fnmadd(in, mc, gwx, zero);
     fy = simd::maskz_fnmadd(in, mc, gwy, zero);
     if constexpr (Viscosity) {  // Morris, Fox & Zhu (1997)
-      const L rgw = simd::fmadd(dx, gwx, dy * gwy);
-      const L k = c.m_eta2 * ir_i * ir_j * rgw * inv_r2e;
+      L k;
+      if constexpr (Normalised) {
+        k = c.m_eta2 * ir_i * ir_j * s * lap_ij;
+      } else {
+        k = c.m_eta2 * ir_i * ir_j * simd::fmadd(dx, gwx, dy * gwy) * inv_r2e;
+      }
       fx = simd::mask3_fmadd(k, vijx, fx, in);
       fy = simd::mask3_fmadd(k, vijy, fy, in);
     }

@@ -23,10 +23,6 @@ namespace {
 constexpr Real kSurfaceSum = 0.95;
 // The largest shift of one step, in spacings.
 constexpr Real kShiftCap = 0.2;
-// eps^2 / hs^2 of W5-W6's denominators r^2 + eps^2 (the summation's 0.01
-// under-counts the viscosity of the nearest pairs by about 2 %; the shifting
-// keeps pairs apart).
-constexpr Real kEps2 = 1e-4;
 }  // namespace
 
 DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
@@ -87,7 +83,8 @@ Real DeltaWcsphMethod::elastic_energy() const {
 }
 
 std::size_t DeltaWcsphMethod::bytes() const {
-  return (sums_.capacity() + rate_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
+  return (sums_.capacity() + rate_.capacity() + lap_.capacity() + inv_rho_.capacity()) *
+             sizeof(Real) +
          (shift_sum_.capacity() + colour_.capacity() + shift_.capacity()) * sizeof(Vec2) +
          walls_.bytes();
 }
@@ -151,35 +148,50 @@ void DeltaWcsphMethod::density(Real dt) {
   const Real hs = Real(0.5) * P_.h, k = P_.rho0 / (P_.c0 * P_.c0);
   const delta::RateConstants<Real> c{P_.mass, P_.delta * hs * P_.c0, k * P_.gravity.x(),
                                      k * P_.gravity.y()};
+  lap_.resize(n);
+  struct Sums {
+    Real d, lap;
+  };
   struct Visitor {
     const Real* rho;
     const Vec2* v;
     const Wendland& W;
     const delta::RateConstants<Real>& c;
     Real* rate;
-    Real begin(Index) const { return 0; }
-    void pair(Real& d, Index i, Index j, const Vec2& r, Real r2, bool) const {
+    Real* lap;
+    Sums begin(Index) const { return {0, 0}; }
+    void pair(Sums& s, Index i, Index j, const Vec2& r, Real r2, bool) const {
       const Vec2 vij = v[i] - v[j];
       Real di, dj;
       delta::rate<Real>(true, W, c, rho[i], rho[j], r.x(), r.y(), r2, vij.x(), vij.y(), di, dj);
-      d += di;
+      s.d += di;
+      s.lap += delta::laplacian_sum(W.gradient_factor(std::sqrt(r2)), r2, c.m / rho[j]);
     }
-    void end(Index i, Real d) const { rate[i] = d; }
-  } visitor{rho, v, kernel_, c, rate_.data()};
+    void end(Index i, const Sums& s) const {
+      rate[i] = s.d;
+      lap[i] = s.lap;
+    }
+  } visitor{rho, v, kernel_, c, rate_.data(), lap_.data()};
   const PeriodicBox& box = ctx_.box;
   pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
                      [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
   if constexpr ((F & kWalls) != 0) {
     ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
-      Real d = rate_[i];
+      Real d = rate_[i], l = lap_[i];
       delta::add_wall_rate(walls_, ghosts, rho[i], v[i], d);
+      delta::add_wall_laplacian(walls_, ghosts, l);
       rate_[i] = d;
+      lap_[i] = l;
     });
   }
   Real* rho_w = ps.rho.data();
   Real* rate = rate_.data();
+  Real* lap = lap_.data();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) rho_w[i] += dt * rate[i];
+  for (Index i = 0; i < n; ++i) {
+    rho_w[i] += dt * rate[i];
+    lap[i] = delta::laplacian_norm(lap[i]);
+  }
   ctx_.timer.mark(kDensity);
 }
 
@@ -219,16 +231,17 @@ void DeltaWcsphMethod::forces() {
   const Real* p = ps.p.data();
   const Real* ir = inv_rho_.data();
   const Vec2* v = ps.v.data();
-  wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
-  c.eps2 = kEps2 * Real(0.25) * P_.h * P_.h;
+  const wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
+  const Real* lap = lap_.data();
   const Real m = P_.mass, inv_wdx = inv_wdx_;
   const Wendland& W = kernel_;
   auto add_pair = [&](Sums& sum, Index i, Index j, const Vec2& r, Real r2, bool) {
     const Vec2 vij = v[i] - v[j];
     const Real coef = delta::pressure_sum(p[i], p[j], ir[i], ir[j]);
     Real fx, fy;
-    wcsph::PairForce<kVisc>::f(true, W, c, rho[i] + rho[j], coef, ir[i], ir[j], r.x(), r.y(), r2,
-                               vij.x(), vij.y(), fx, fy);
+    wcsph::PairForce<kVisc, true>::f(true, W, c, rho[i] + rho[j], coef, ir[i], ir[j], r.x(),
+                                     r.y(), r2, vij.x(), vij.y(), fx, fy,
+                                     Real(0.5) * (lap[i] + lap[j]));
     sum.f += Vec2(fx, fy);
     const Real rl = std::sqrt(r2), vj = m * ir[j];
     sum.s += (delta::shift_weight(W, rl, inv_wdx) * vj) * r;
@@ -238,8 +251,10 @@ void DeltaWcsphMethod::forces() {
     Vec2 f = sum.f, s = sum.s;
     if constexpr ((F & kWalls) != 0) {
       const Row<Vec2> ghosts = ctx_.ghosts.row(i);
-      wcsph::add_wall_force<kVisc>(walls_, W, c, P_.rho0, ghosts, p[i] * ir[i] * ir[i], ir[i],
+      // W8 and W9's artificial viscosity; the physical one by W25's rows
+      wcsph::add_wall_force<false>(walls_, W, c, P_.rho0, ghosts, p[i] * ir[i] * ir[i], ir[i],
                                    v[i], f);
+      if constexpr (kVisc) delta::add_wall_friction(walls_, ghosts, P_.eta, lap[i], ir[i], v[i], f);
       delta::add_wall_hydrostatic(walls_, ghosts, P_.rho0, ir[i], P_.gravity, f);
       // the walls' half-planes in the shifting sum: sum V grad W = -Psi n
       for (const Vec2& g : ghosts) {

@@ -72,6 +72,7 @@ class DeltaWcsphMethod final : public SphMethod {
   Real inv_wdx_;                  // 1 / W(dx), the shifting's reference
   std::vector<Real> sums_;        // kernel sums over the fluid and walls, / rho0
   std::vector<Real> rate_;        // d rho / dt
+  std::vector<Real> lap_;         // the viscous term's normalisation c_i (W24)
   std::vector<Real> inv_rho_;     // 1 / rho
   std::vector<Vec2> shift_sum_;   // W21's sum of each particle
   std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
