@@ -75,6 +75,12 @@ void Solver::set_walls(std::vector<Segment> walls) {
   compute_forces();
 }
 
+void Solver::set_wall_velocities(const std::vector<Vec2>& velocities) {
+  ctx_.walls.set_velocities(velocities);
+  compute_forces();
+  compute_energy_budget();
+}
+
 void Solver::set_threads(int threads) {
   require(threads >= 0, "threads must be >= 0");
   ctx_.set_threads(threads);
@@ -160,7 +166,11 @@ void Solver::compute_energy_budget() {
   surface = std::max(surface, method_->surface_energy());
   const Real c = ctx_.sound_speed;
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
-  ctx_.energy_budget = kinetic + release + elastic + surface + floor;
+  // A wall whose surface slides drags the fluid at most to its own speed.
+  Real drag = 0;
+  for (const Segment& w : ctx_.walls.segments())
+    drag = std::max(drag, 0.5 * n * m * w.velocity.squaredNorm());
+  ctx_.energy_budget = kinetic + release + elastic + surface + floor + drag;
   ctx_.energy_removed = 0;
 }
 

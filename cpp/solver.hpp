@@ -41,6 +41,8 @@ class Solver {
   void add_particles(const std::vector<Vec2>& positions, const std::vector<Vec2>& velocities);
   // Replace the walls; the step is re-specialised if walls appear or vanish.
   void set_walls(std::vector<Segment> walls);
+  // The walls' surface velocities, one per segment (their tangential parts).
+  void set_wall_velocities(const std::vector<Vec2>& velocities);
   void set_threads(int threads);
 
   const SimParams& params() const { return params_; }

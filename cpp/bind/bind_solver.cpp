@@ -95,7 +95,13 @@ void def_editing(SolverClass& c) {
           "Append particles (n, 2) with fresh ids; those outside the domain are removed.")
       .def(
           "set_walls", [](Solver& s, const InArray& walls) { s.set_walls(bind::to_segments(walls)); },
-          py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.");
+          py::arg("walls"), "Replace the wall segments (s, 2, 2); takes effect at once.")
+      .def(
+          "set_wall_velocities",
+          [](Solver& s, const InArray& v) { s.set_wall_velocities(bind::to_vec2(v, "velocities")); },
+          py::arg("velocities"),
+          "The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by "
+          "default and after set_walls.");
 }
 
 // Threads and the code paths that run.

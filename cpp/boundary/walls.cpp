@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace sphfluid {
@@ -195,6 +196,35 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
     bounced[n_bounced++] = si;
   }
   x_new = p1;
+}
+
+void WallSet::set_velocities(const std::vector<Vec2>& velocities) {
+  if (velocities.size() != segments_.size())
+    throw std::invalid_argument("one wall velocity per segment");
+  moving_ = false;
+  for (std::size_t k = 0; k < segments_.size(); ++k) {
+    if (!velocities[k].allFinite()) throw std::invalid_argument("wall velocity is not finite");
+    Segment& s = segments_[k];
+    s.velocity = velocities[k].dot(s.t) * s.t;
+    moving_ = moving_ || s.velocity.squaredNorm() > 0;
+  }
+}
+
+Vec2 WallSet::velocity_at(const Vec2& foot) const {
+  const Index c = cell_of(foot);
+  if (c < 0) return Vec2::Zero();
+  Real best = std::numeric_limits<Real>::infinity();
+  Vec2 v = Vec2::Zero();
+  for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) {
+    const Segment& s = segments_[cell_items_[q]];
+    Real t;
+    const Real d2 = (closest_point(s, foot, t) - foot).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      v = s.velocity;
+    }
+  }
+  return v;
 }
 
 }  // namespace sphfluid

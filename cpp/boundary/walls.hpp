@@ -20,6 +20,9 @@ struct Segment {
   Real len;       // length, m
   Index shared_a = -1;  // another segment that has end point a too, or -1
   Index shared_b = -1;  // likewise for b
+  // The velocity of the wall's surface along t (m/s; the wall itself stays
+  // where it is: a lid that slides). Only its tangential part is used.
+  Vec2 velocity = Vec2::Zero();
 };
 
 // Throws std::invalid_argument for a zero-length or non-finite segment.
@@ -41,6 +44,13 @@ class WallSet {
 
   bool empty() const { return segments_.empty(); }
   const std::vector<Segment>& segments() const { return segments_; }
+  // The walls' surface velocities (one per segment; their tangential parts).
+  void set_velocities(const std::vector<Vec2>& velocities);
+  // Whether any wall's surface moves.
+  bool moving() const { return moving_; }
+  // The surface velocity of the wall through `foot` (a ghost's foot of the
+  // perpendicular; the nearest segment of its lookup cell), zero off the grid.
+  Vec2 velocity_at(const Vec2& foot) const;
 
   // Calls f(r_ig, interior) for every ghost of a fluid particle at p, where
   // r_ig = p - ghost, |r_ig| < h, and interior is false for a ghost clamped to an
@@ -138,6 +148,7 @@ class WallSet {
   Index first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const;
 
   std::vector<Segment> segments_;
+  bool moving_ = false;
   Real h2_ = 0;
   Real eps_ = 0;  // stand-off from a wall after a bounce, m
   // Lookup grid: each cell lists the segments that come within h of it.

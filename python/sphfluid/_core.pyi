@@ -137,6 +137,9 @@ class Solver(metaclass=_Pybind11Type):
         """Append particles (n, 2) with fresh ids; those outside the domain are removed."""
     def set_walls(self, walls: ArrayLike) -> None:
         """Replace the wall segments (s, 2, 2); takes effect at once."""
+    def set_wall_velocities(self, velocities: ArrayLike) -> None:
+        """The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by
+        default and after set_walls."""
     @property
     def threads(self) -> int:
         """OpenMP threads the step may use (0: the OpenMP default)."""

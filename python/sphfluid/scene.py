@@ -53,12 +53,14 @@ ON_INSTABILITY = ("stop", "retry")
 PAIR_PRECISIONS = ("double", "float")
 DENSITIES = ("summation", "continuity")  # wcsph's density (docs/method-wcsph.md, W2 / W17)
 DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
+DEFAULT_SHIFTING = 16.0  # wcsph with continuity: the shifting coefficient k (W21)
+CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),
     "circle": ("shape", "center", "radius", "velocity"),
     "polygon": ("shape", "points", "velocity"),
 }
-_POLYLINE_KEYS = ("polyline", "closed")
+_POLYLINE_KEYS = ("polyline", "closed", "velocity")
 
 
 class SceneError(ValueError):
@@ -140,6 +142,9 @@ class Scene:
     particle_mass: float | None = None  # kg per m of depth; None: lattice default
     regions: tuple = ()  # of Region
     walls: tuple = ()  # of ((x1, y1), (x2, y2)) segments, m
+    # per segment, the velocity (u, v) of its surface along it (m/s; a sliding
+    # lid); () when no wall's surface moves
+    wall_velocities: tuple = ()
     method: str = "seed"
     duration: float | None = None  # s
     wall_restitution: float = DEFAULT_RESTITUTION
@@ -152,9 +157,21 @@ class Scene:
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
     density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W23)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
-    shifting: float = 0.0  # wcsph with continuity: particle shifting coefficient (0: none)
+    shifting: float = DEFAULT_SHIFTING  # wcsph with continuity: shifting coefficient (0: none)
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
+
+    def _walls_json(self) -> list:
+        """The walls as the scene format writes them: a moving surface's segment as
+        {"polyline": [a, b], "velocity": [u, v]}."""
+        out = []
+        for k, (a, b) in enumerate(self.walls):
+            v = self.wall_velocities[k] if self.wall_velocities else (0.0, 0.0)
+            if any(v):
+                out.append({"polyline": [list(a), list(b)], "velocity": list(v)})
+            else:
+                out.append([list(a), list(b)])
+        return out
 
     def lattice_points(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions (n, 2) and velocities (n, 2) of the initial particles.
@@ -191,7 +208,7 @@ class Scene:
                       "surface_tension": self.surface_tension},
             "resolution": {"spacing": self.spacing, "smoothing_length": self.smoothing_length},
             "fluid_regions": regions,
-            "walls": [[list(a), list(b)] for a, b in self.walls],
+            "walls": self._walls_json(),
             "solver": {"method": self.method,
                        "time_step": "auto" if self.time_step is None else self.time_step,
                        "wall_restitution": self.wall_restitution},
@@ -220,7 +237,7 @@ class Scene:
             out["solver"]["density"] = self.density
         if self.density_diffusion != DEFAULT_DENSITY_DIFFUSION:
             out["solver"]["density_diffusion"] = self.density_diffusion
-        if self.shifting:
+        if self.density == "continuity" and self.shifting != DEFAULT_SHIFTING:
             out["solver"]["shifting"] = self.shifting
         if self.duration is not None:
             out["duration"] = self.duration
@@ -359,7 +376,8 @@ class _Validator:
         domain = self.domain(d)
         solver = self.solver(d)
         fluid = self.fluid(d, solver.method)
-        res = self.resolution(d)
+        res = self.resolution(d, continuity=solver.method == "wcsph"
+                              and solver.density == "continuity")
         regions = self.regions(d)
         walls = self.walls(d.get("walls", []))
         duration = self.number_at(d, "duration", "", low=0)
@@ -368,6 +386,7 @@ class _Validator:
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
         self.check_continuity(solver, fluid.sigma)
+        self.check_sliding_walls(solver)
         self.check_regions_inside(domain, regions)
         if res.dx and regions and not self.problems:
             self.check_particle_budget(regions, res.dx)
@@ -379,6 +398,7 @@ class _Validator:
                       time_step=solver.dt, name=name, gravity=gravity, viscosity=fluid.eta,
                       surface_tension=fluid.sigma, particle_mass=res.mass,
                       regions=tuple(regions), walls=tuple(walls), method=solver.method,
+                      wall_velocities=self.wall_velocities(),
                       duration=duration, wall_restitution=solver.restitution,
                       surface_threshold=solver.threshold, cfl=solver.cfl,
                       on_instability=solver.on_instability, speed_of_sound=fluid.c0,
@@ -440,7 +460,8 @@ class _Validator:
         density = self.choice(solver, "density", "solver.", DENSITIES)
         diffusion = self.number_at(solver, "density_diffusion", "solver.",
                                    DEFAULT_DENSITY_DIFFUSION, low=0, strict=False)
-        shifting = self.number_at(solver, "shifting", "solver.", 0.0, low=0, strict=False)
+        shifting = self.number_at(solver, "shifting", "solver.", DEFAULT_SHIFTING, low=0,
+                                  strict=False)
         for key in ("density", "density_diffusion", "shifting"):
             if key in solver and method != "wcsph":
                 self.fail(f"solver.{key}", "applies to the wcsph method only")
@@ -484,7 +505,9 @@ class _Validator:
                                  low=0, strict=False),
         )
 
-    def resolution(self, d: dict) -> _Resolution:
+    def resolution(self, d: dict, continuity: bool = False) -> _Resolution:
+        """The spacing, the support (by default 2 spacings; 3 for wcsph's continuity
+        density, docs/method-wcsph.md) and the particle mass."""
         res = self.section(d, "resolution", _RESOLUTION_KEYS)
         if res is None:
             return _Resolution(None, None, None)
@@ -498,7 +521,7 @@ class _Validator:
                           "lattice would not see their neighbours")
                 h = None
         elif dx is not None:
-            h = DEFAULT_SMOOTHING_FACTOR * dx
+            h = (CONTINUITY_SMOOTHING_FACTOR if continuity else DEFAULT_SMOOTHING_FACTOR) * dx
         mass = self.number_at(res, "particle_mass", "resolution.", low=0)
         return _Resolution(dx, h, mass)
 
@@ -571,6 +594,8 @@ class _Validator:
         return pts
 
     def walls(self, raw: Any) -> list[tuple[Point, Point]]:
+        self._velocities: list[Point] = []  # one per segment
+        self._moving_wall = ""  # the path of the first wall whose surface moves
         if not isinstance(raw, list):
             self.fail("walls", f"expected a list, got {_kind(raw)}")
             return []
@@ -578,9 +603,14 @@ class _Validator:
         for i, item in enumerate(raw):
             path = f"walls[{i}]"
             if isinstance(item, dict):
-                out += self.polyline(item, path)
+                segs = self.polyline(item, path)
+                v = self.surface_velocity(item, path, segs)
+                out += segs
+                self._velocities += [v] * len(segs)
             elif isinstance(item, list) and len(item) == 2:
-                out += self.segment(item, path)
+                segs = self.segment(item, path)
+                out += segs
+                self._velocities += [(0.0, 0.0)] * len(segs)
             else:
                 self.fail(path, "expected a segment [[x1, y1], [x2, y2]] or "
                           f'{{"polyline": [[x, y], ...]}}, got {_kind(item)}')
@@ -611,6 +641,35 @@ class _Validator:
             else:
                 out.append((pts[j], pts[j + 1]))
         return out
+
+    def surface_velocity(self, item: dict, path: str, segs: list) -> Point:
+        """A polyline's "velocity" [u, v]: its surface slides along it (a lid)."""
+        if "velocity" not in item:
+            return (0.0, 0.0)
+        v = self.point(item["velocity"], f"{path}.velocity")
+        if v is None or not any(v):
+            return (0.0, 0.0)
+        speed = math.hypot(*v)
+        for a, b in segs:
+            t = (b[0] - a[0], b[1] - a[1])
+            if abs(v[0] * t[1] - v[1] * t[0]) > 1e-9 * speed * math.hypot(*t):
+                self.fail(f"{path}.velocity", "must be along the wall: its surface slides, the "
+                          "wall stays where it is (a lid); moving walls are not supported yet")
+                return (0.0, 0.0)
+        self._moving_wall = self._moving_wall or f"{path}.velocity"
+        return v
+
+    def wall_velocities(self) -> tuple:
+        """Per segment, its surface velocity; () when none moves."""
+        moving = any(any(v) for v in getattr(self, "_velocities", []))
+        return tuple(self._velocities) if moving else ()
+
+    def check_sliding_walls(self, solver: _Solver) -> None:
+        """A sliding wall's velocity enters wcsph's continuity density only."""
+        if getattr(self, "_moving_wall", "") and not (solver.method == "wcsph"
+                                                      and solver.density == "continuity"):
+            self.fail(self._moving_wall, 'a wall\'s velocity needs "method": "wcsph" with '
+                      '"density": "continuity" (docs/method-wcsph.md, W25)')
 
     def segment(self, item: list, path: str) -> list[tuple[Point, Point]]:
         """[[x1, y1], [x2, y2]] as a list of one segment (none after a problem)."""

@@ -120,6 +120,8 @@ class Simulation:
         pos, vel = self.scene.lattice_points()
         self._solver = _core.Solver(_params(self.scene, self._threads), pos, vel,
                                     _wall_array(self.scene))
+        if self.scene.wall_velocities:  # sliding surfaces (docs/method-wcsph.md, W25)
+            self._solver.set_wall_velocities(np.asarray(self.scene.wall_velocities, float))
         self._initial_count = len(pos)
 
     # -- stepping
@@ -220,11 +222,12 @@ class Simulation:
         """Replace the walls: a sequence of segments ((x1, y1), (x2, y2)).
 
         Takes effect at once; the scene (what ``reset`` and saving use) follows.
+        The new walls' surfaces are at rest (a sliding lid's velocity is dropped).
         """
         arr = np.asarray(walls, float).reshape(-1, 2, 2)
         self._solver.set_walls(arr)  # validates: raises ValueError naming walls[i]
         segs = tuple((tuple(map(float, a)), tuple(map(float, b))) for a, b in arr)
-        self.scene = dataclasses.replace(self.scene, walls=segs)
+        self.scene = dataclasses.replace(self.scene, walls=segs, wall_velocities=())
 
     def add_wall(self, a, b) -> None:
         """Add the wall segment a -> b (points [x, y], m)."""

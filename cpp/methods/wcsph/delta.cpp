@@ -254,7 +254,14 @@ void DeltaWcsphMethod::forces() {
       // W8 and W9's artificial viscosity; the physical one by W25's rows
       wcsph::add_wall_force<false>(walls_, W, c, P_.rho0, ghosts, p[i] * ir[i] * ir[i], ir[i],
                                    v[i], f);
-      if constexpr (kVisc) delta::add_wall_friction(walls_, ghosts, P_.eta, lap[i], ir[i], v[i], f);
+      if constexpr (kVisc) {
+        const Vec2 xi = ps.x[i];
+        const WallSet& ws = ctx_.walls;
+        auto wall_velocity = [&](const Vec2& r) {
+          return ws.moving() ? ws.velocity_at(xi - r) : Vec2::Zero();
+        };
+        delta::add_wall_friction(walls_, ghosts, P_.eta, lap[i], ir[i], v[i], wall_velocity, f);
+      }
       delta::add_wall_hydrostatic(walls_, ghosts, P_.rho0, ir[i], P_.gravity, f);
       // the walls' half-planes in the shifting sum: sum V grad W = -Psi n
       for (const Vec2& g : ghosts) {

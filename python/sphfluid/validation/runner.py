@@ -53,6 +53,8 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("droplet", "wcsph", 10): 2,  # 1.385
     ("droplet", "wcsph", 15): 0.25,  # 0.1738
     ("droplet", "wcsph", 20): 0.016,  # 0.01117
+    ("cavity", "wcsph", 20): 0.094,  # 0.06661
+    ("cavity", "wcsph", 30): 0.041,  # 0.02917
     ("oscillation", "wcsph", 10): 0.34,  # 0.2374
     ("oscillation", "wcsph", 15): 0.19,  # 0.1323
     ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
@@ -236,20 +238,38 @@ def _profile(name: str, results: list[Result], ax) -> None:
         ax.set_yscale("symlog", linthresh=10)
         ax.set_xlabel("t, s")
         ax.set_ylabel("pressure inside, Pa")
+    elif name == "cavity":
+        _profile_cavity(best, ax)
     elif name == "oscillation":
-        for m, r in best.items():
-            ax.plot(r.curves["t"], r.curves["q"] * 1e4, color=COLOURS[m], label=f"{m}, n={r.n}")
-        if best:
-            period = next(iter(best.values())).curves["period"]
-            for k in range(1, 3):
-                ax.axvline(k * period, color="k", lw=0.8,
-                           label="analytic period" if k == 1 else None)
-        ax.set_xlabel("t, s")
-        ax.set_ylabel("<x^2 - y^2>, cm^2")
+        _profile_oscillation(best, ax)
     ax.set_title("simulated against the reference (finest completed run)", fontsize=10)
     ax.grid(True, alpha=0.3)
     if ax.lines or ax.collections:
         ax.legend(fontsize=8)
+
+
+def _profile_oscillation(best: dict, ax) -> None:
+    for m, r in best.items():
+        ax.plot(r.curves["t"], r.curves["q"] * 1e4, color=COLOURS[m], label=f"{m}, n={r.n}")
+    if best:
+        period = next(iter(best.values())).curves["period"]
+        for k in range(1, 3):
+            ax.axvline(k * period, color="k", lw=0.8, label="analytic period" if k == 1 else None)
+    ax.set_xlabel("t, s")
+    ax.set_ylabel("<x^2 - y^2>, cm^2")
+
+
+def _profile_cavity(best: dict, ax) -> None:
+    """u on the vertical and v on the horizontal centreline against Ghia et al."""
+    for k, (m, r) in enumerate(best.items()):
+        c = r.curves
+        if k == 0:
+            ax.plot(c["u_ref"], c["y"], "ks", ms=4, label="Ghia et al.: u(y) at x = 1/2")
+            ax.plot(c["x"], c["v_ref"], "k^", ms=4, label="Ghia et al.: v(x) at y = 1/2")
+        ax.plot(c["u"], c["y"], "-", color=COLOURS[m], label=f"{m}, n={r.n}: u(y)")
+        ax.plot(c["x"], c["v"], "--", color=COLOURS[m], label=f"{m}, n={r.n}: v(x)")
+    ax.set_xlabel("u / U  (and x / L for v)")
+    ax.set_ylabel("y / L  (and v / U)")
 
 
 def report(results: list[Result], names: list[str], mode: str, command: str, seconds: float,
