@@ -53,7 +53,7 @@ ON_INSTABILITY = ("stop", "retry")
 PAIR_PRECISIONS = ("double", "float")
 DENSITIES = ("summation", "continuity")  # wcsph's density (docs/method-wcsph.md, W2 / W17)
 DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
-DEFAULT_SHIFTING = 16.0  # wcsph with continuity: the shifting coefficient k (W21)
+DEFAULT_SHIFTING = 0.0  # wcsph with continuity: the shifting coefficient k (W21); none
 CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),

@@ -564,8 +564,8 @@ def _mls_linear(x: np.ndarray, f: np.ndarray, points: np.ndarray, h: float) -> n
 
 class Cavity(Case):
     """A 1 x 1 m box whose lid slides at U = 1 m/s, Re = 100 (nu = 0.01 m^2/s),
-    c0 = 10 U, from rest on the lattice, to t = 30 s (steady: the centreline
-    velocities move by less than 1e-3 U over the last 10 s). A wall whose
+    c0 = 10 U, from rest on the lattice, to t = 30 s (how much the centreline
+    velocities still move over the last 10 s is reported). A wall whose
     surface slides needs wcsph with the continuity density (docs/method-wcsph.md,
     W25), which the scene asks for. Error: the largest |u - u_Ghia| on the
     vertical centreline and |v - v_Ghia| on the horizontal one (Ghia, Ghia &

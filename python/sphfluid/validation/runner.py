@@ -53,8 +53,8 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("droplet", "wcsph", 10): 2,  # 1.385
     ("droplet", "wcsph", 15): 0.25,  # 0.1738
     ("droplet", "wcsph", 20): 0.016,  # 0.01117
-    ("cavity", "wcsph", 20): 0.094,  # 0.06661
-    ("cavity", "wcsph", 30): 0.041,  # 0.02917
+    ("cavity", "wcsph", 20): 0.11,  # 0.07998
+    ("cavity", "wcsph", 30): 0.052,  # 0.03699
     ("oscillation", "wcsph", 10): 0.34,  # 0.2374
     ("oscillation", "wcsph", 15): 0.19,  # 0.1323
     ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
