@@ -78,11 +78,8 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
   const Vec2* a = ps.a.data();
   const Real* rho = ps.rho.data();
   [[maybe_unused]] const Real e = params_.restitution;
-  const Real inf = std::numeric_limits<Real>::infinity();
-  const bool guard = params_.guard;
-  const Real rho_max = guard ? params_.guard_density_ratio * params_.rho0 : inf;
-  const Real v_max = params_.guard_speed_factor * sound_speed;
-  const Real v2_max = guard ? v_max * v_max : inf;
+  const GuardLimits lim = guard_limits();
+  const Real rho_max = lim.rho_max, v2_max = lim.v2_max;
   ghosts.stale();  // the wall clearances serve one integration only
   bool bad = false;
   Real sum = 0;
@@ -126,10 +123,8 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
   const Real* rho = ps.rho.data();
   [[maybe_unused]] const Real e = params_.restitution;
   const Real inf = std::numeric_limits<Real>::infinity();
-  const bool guard = params_.guard;
-  const Real rho_max = guard ? params_.guard_density_ratio * params_.rho0 : inf;
-  const Real v_max = params_.guard_speed_factor * sound_speed;
-  const Real v2_max = guard ? v_max * v_max : inf;
+  const GuardLimits lim = guard_limits();
+  const Real rho_max = lim.rho_max, v2_max = lim.v2_max;
   // The clearances found by this step's ghost search, for the positions x;
   // they serve this integration only.
   [[maybe_unused]] const bool clear_known = ghosts.fresh_for(n);
