@@ -13,38 +13,45 @@ from reference import delta_forces, delta_rate, laplacian_sums
 H, M, RHO0, C0 = 0.1, 0.6, 1000.0, 20.0
 
 
-def solver(x, v, *, alpha, eta, delta, gravity, side, threads=1, shifting=0.0):
+def solver(x, v, *, alpha, eta, delta, gravity, side, threads=1, shifting=0.0, periodic=True):
+    """Periodic: the box [0, side]^2 wraps (full lists); else a closed box a
+    side larger all round, without walls (where the lanes run, the cell
+    clusters unless something shifts)."""
     p = _core.SimParams()
     p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, H, M, RHO0, C0
     p.alpha, p.eta, p.gravity = alpha, eta, gravity
     p.continuity, p.delta, p.shifting = True, delta, shifting
-    p.domain_min, p.domain_max = (0.0, 0.0), (side, side)
-    p.periodic = (True, True)
+    p.domain_min, p.domain_max = ((0.0, 0.0), (side, side)) if periodic else \
+        ((-side, -side), (2 * side, 2 * side))
+    p.periodic = (periodic, periodic)
     p.threads = threads
     return _core.Solver(p, x, v, np.zeros((0, 2, 2)))
 
 
+@pytest.mark.parametrize("periodic", [True, False])
 @pytest.mark.parametrize("alpha,eta,delta", [(0.0, 0.0, 0.0), (0.3, 0.5, 0.1), (0.0, 0.5, 0.4)])
-def test_one_step_equals_brute_force(alpha, eta, delta):
-    """A random periodic cloud: the starting evaluation (rho = rho0), then one
-    step of dt: v_h = v + dt/2 a0, x1 = x + dt v_h, rho1 = rho0 + dt D(x1, v_h,
-    rho0), a1 = a(x1, v_h, rho1) (W22), each against the brute force."""
+def test_one_step_equals_brute_force(alpha, eta, delta, periodic):
+    """A random cloud, periodic or in a closed box: the starting evaluation
+    (rho = rho0), then one step of dt: v_h = v + dt/2 a0, x1 = x + dt v_h,
+    rho1 = rho + dt D(x1, v_h, rho), a1 = a(x1, v_h, rho1) (W22), each
+    against the brute force; rho is rho0, or W23's start in the closed box."""
     rng = np.random.default_rng(4)
     side, n = 0.6, 400
     x = rng.uniform(0.0, side, (n, 2))
     v = rng.normal(0.0, 0.5, (n, 2))
     g = (0.3, -9.81)
-    s = solver(x, v, alpha=alpha, eta=eta, delta=delta, gravity=g, side=side)
-    rho = np.full(n, RHO0)
-    period = (side, side)
+    s = solver(x, v, alpha=alpha, eta=eta, delta=delta, gravity=g, side=side, periodic=periodic)
+    o = np.argsort(s.ids)
+    rho = s.densities[o].copy()  # rho0, or in the closed box W23's start
+    assert np.all(rho == RHO0) == periodic
+    period = (side, side) if periodic else None
     kw = dict(h=H, m=M, rho0=RHO0, c0=C0, alpha=alpha, eta=eta, gravity=g, period=period)
     _, a0 = delta_forces(x, v, rho, **kw)
-    o = np.argsort(s.ids)
     np.testing.assert_allclose(s.accelerations[o], a0, rtol=1e-9, atol=1e-9 * np.abs(a0).max())
     dt = 2e-4
     s.step(dt)
     vh = v + 0.5 * dt * a0
-    x1 = np.mod(x + dt * vh, side)
+    x1 = np.mod(x + dt * vh, side) if periodic else x + dt * vh
     d = delta_rate(x1, vh, rho, h=H, m=M, rho0=RHO0, c0=C0, delta=delta, gravity=g,
                    period=period)
     assert np.abs(d).max() > 100  # the rate matters at this dt
@@ -57,7 +64,7 @@ def test_one_step_equals_brute_force(alpha, eta, delta):
     np.testing.assert_allclose(s.densities[o], rho1, rtol=1e-12)
     np.testing.assert_allclose(s.pressures[o], p1, rtol=1e-9, atol=1e-9 * np.abs(p1).max())
     np.testing.assert_allclose(s.accelerations[o], a1, rtol=1e-8, atol=1e-8 * np.abs(a1).max())
-    assert (p1 < 0).sum() > 50 and (p1 > 0).sum() > 50  # no clamp: both signs occur
+    assert (p1 < 0).sum() > 20 and (p1 > 0).sum() > 20  # no clamp: both signs occur
 
 
 def test_diffusion_leaves_a_hydrostatic_profile_alone():
@@ -78,7 +85,8 @@ def test_diffusion_leaves_a_hydrostatic_profile_alone():
     assert np.abs(plain[interior]).max() > 1e-3
 
 
-def test_one_thread_and_two_give_the_same_state():
+@pytest.mark.parametrize("periodic,shifting", [(True, 16.0), (False, 0.0)])
+def test_one_thread_and_two_give_the_same_state(periodic, shifting):
     rng = np.random.default_rng(5)
     side, n = 1.5, 2500
     x = rng.uniform(0.0, side, (n, 2))
@@ -86,7 +94,7 @@ def test_one_thread_and_two_give_the_same_state():
     runs = []
     for threads in (1, 2):
         s = solver(x, v, alpha=0.1, eta=0.5, delta=0.1, gravity=(0.0, -9.81), side=side,
-                   threads=threads, shifting=16.0)
+                   threads=threads, shifting=shifting, periodic=periodic)
         s.step(1e-4, 5)
         o = np.argsort(s.ids)
         runs.append((s.positions[o], s.velocities[o], s.densities[o]))

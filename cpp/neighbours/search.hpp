@@ -101,22 +101,24 @@ class NeighbourSearch {
   }
 
   // The same by cell clusters (cell_pairs.hpp): no lists; the blocks of cell
-  // rows are cut afresh from the sorted particles.
+  // rows are cut afresh from the sorted particles. The sums go to ps.rho, or
+  // to `sums` (n entries) when given.
   template <class WeightOfR2>
-  void clusters(ParticleSet& ps, Real h, Real m, int threads, WeightOfR2 w, PhaseTimer& timer) {
+  void clusters(ParticleSet& ps, Real h, Real m, int threads, WeightOfR2 w, PhaseTimer& timer,
+                Real* sums = nullptr) {
 #if SPHFLUID_AVX512
     if constexpr (CellPairs::kAvailable) {
       const Index n = ps.size();
       sort(ps, h, threads, PeriodicBox(), timer);
       half_lists_ = false;
       cells_.make_blocks(grid_, n, pair_blocks(n));
-      cell_pair_count_ = cells_.density(grid_, ps.x.data(), h, m, w(Real(0)), w, ps.rho.data(),
-                                        threads);
+      cell_pair_count_ = cells_.density(grid_, ps.x.data(), h, m, w(Real(0)), w,
+                                        sums ? sums : ps.rho.data(), threads);
       timer.mark(kNeighbours);
       return;
     }
 #endif
-    (void)ps, (void)h, (void)m, (void)threads, (void)w, (void)timer;
+    (void)ps, (void)h, (void)m, (void)threads, (void)w, (void)timer, (void)sums;
     throw std::logic_error("the cell-cluster loops need AVX-512F and VL");
   }
 

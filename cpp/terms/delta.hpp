@@ -26,7 +26,9 @@ struct RateConstants {
   L m, dc, hx, hy;
 };
 
-// W17-W18 for one pair on the lanes of `in` (r < h): the rates of i and j.
+// W17-W18 for one pair on the lanes of `in` (r < h): the rates of i and j,
+// from the kernel's gradient factor F (grad W_ij = F r_ij) and the volumes
+// V = m / rho (zero on the lanes outside `in`).
 //   continuity (the rho_i div v form):  D_i += rho_i V_j v_ij . grad W_ij,
 //                                       D_j += rho_j V_i v_ij . grad W_ij
 //   diffusion (Molteni & Colagrossi 2009, with the hydrostatic part taken out
@@ -34,18 +36,16 @@ struct RateConstants {
 //     psi_ij = 2 [(rho_j - rho_i) + rho0 g . r_ij / c0^2],
 //     D_i += delta hs c0 psi_ij (r_ji . grad W_ij) / r^2 V_j,  D_j gets the
 //     same with psi_ji = -psi_ij and V_i;
-// with grad W_ij = F r_ij, r_ji . grad W_ij / r^2 = -F. V = m / rho.
+// with r_ji . grad W_ij / r^2 = -F.
 template <class L>
-SPHFLUID_INLINE void rate(simd::Mask<L> in, const Wendland& W, const RateConstants<L>& c,
-                          L rho_i, L rho_j, L dx, L dy, L r2, L vijx, L vijy, L& di, L& dj) {
+SPHFLUID_INLINE void rate(simd::Mask<L> in, L F, const RateConstants<L>& c, L rho_i, L rho_j,
+                          L vol_i, L vol_j, L dx, L dy, L vijx, L vijy, L& di, L& dj) {
   const L zero = simd::zero<L>();
-  const L F = W.gradient_factor(simd::sqrt(r2));
   const L vg = F * simd::fmadd(vijx, dx, vijy * dy);
-  const L vi = simd::maskz_div(in, c.m, rho_i), vj = simd::maskz_div(in, c.m, rho_j);
   const L psi = simd::splat<L>(2) * (rho_j - rho_i + simd::fmadd(c.hx, dx, c.hy * dy));
   const L t = zero - c.dc * psi * F;
-  di = simd::maskz(in, (rho_i * vg + t) * vj);
-  dj = simd::maskz(in, (rho_j * vg - t) * vi);
+  di = simd::maskz(in, (rho_i * vg + t) * vol_j);
+  dj = simd::maskz(in, (rho_j * vg - t) * vol_i);
 }
 
 // W24: the normalisation of the viscous term (the Laplacian of Morris et al.

@@ -7,7 +7,8 @@
 // search (with the kernel sums that find the free surface), the walls'
 // ghosts, the density rate and the density's drift, the Tait state equation,
 // the pair forces with the shifting sums, the walls' forces, and the second
-// kick. The pair loops run over full neighbour lists.
+// kick. The pair loops run by cell clusters (each pair once, in lanes) or,
+// across periodic seams or with shifting, over full neighbour lists.
 #pragma once
 
 #include <vector>
@@ -55,7 +56,13 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void density(Real dt);
   void state();
   template <unsigned F> void forces();
-  template <unsigned F> void accelerations(Real half);
+  template <unsigned F> void add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const;
+  // Whether the fluid pairs can run by cell clusters (neighbours/cell_pairs.hpp):
+  // where the lanes run and without periodic seams; they do when nothing
+  // shifts (the shifting sums ride on the list loops).
+  static constexpr bool by_cells(unsigned features) {
+    return CellPairs::kAvailable && (features & kPeriodic) == 0;
+  }
   // The shift of the next drift (W21-W22), from this evaluation's sums.
   template <unsigned F> bool shift_for(Real dt);
 
@@ -71,7 +78,8 @@ class DeltaWcsphMethod final : public SphMethod {
   EvalFn* eval_fn_ = nullptr;
   Real inv_wdx_;                  // 1 / W(dx), the shifting's reference
   std::vector<Real> sums_;        // kernel sums over the fluid and walls, / rho0
-  std::vector<Real> rate_;        // d rho / dt
+  bool by_cells_ = false;         // this evaluation's pairs run by cell clusters
+  std::vector<Vec2> rate_lap_;    // (d rho / dt, W24's sum)
   std::vector<Real> lap_;         // the viscous term's normalisation c_i (W24)
   std::vector<Real> inv_rho_;     // 1 / rho
   std::vector<Vec2> shift_sum_;   // W21's sum of each particle

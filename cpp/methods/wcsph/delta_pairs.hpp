@@ -1,0 +1,87 @@
+// The continuity density's pair sums as the traversals take them (the cell
+// clusters: load a group, add a pair's shares; the list loops: one lane at a
+// time): the rate of the density with the viscous term's normalisation sum
+// (terms/delta.hpp, W17-W18 and W24), and the pair force in the sum form
+// (W19 with W4-W6), each bound to the data it reads, on any lane type. A
+// pass's two sums ride in the two components of a Vec2 array.
+#pragma once
+
+#include "core/types.hpp"
+#include "neighbours/access.hpp"
+#include "terms/delta.hpp"
+#include "terms/wcsph.hpp"
+
+namespace sphfluid::delta {
+
+// i's (rate, Laplacian sum) into (di, li), j's into (dj, lj); ir = 1 / rho.
+template <class L>
+struct RatePairs {
+  const Real* rho;
+  const Real* ir;
+  InterleavedVelocity v;
+  Wendland W;
+  RateConstants<L> c;
+  struct Data {
+    L rho, vol, vx, vy;
+  };
+  template <class S>
+  SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
+    d.rho = simd::load<L>(rho + j, s.lanes);
+    d.vol = c.m * simd::load<L>(ir + j, s.lanes);
+    v.template group<L>(j, s, d.vx, d.vy);
+  }
+  SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& di,
+                           L& li, L& dj, L& lj) const {
+    const L rho_i = simd::splat<L>(rho[i]);
+    const L F = W.gradient_factor(simd::sqrt(r2));
+    const L vol_i = simd::maskz(in, c.m * simd::splat<L>(ir[i])), vol_j = simd::maskz(in, d.vol);
+    const L vijx = simd::splat<L>(v.x(i)) - d.vx, vijy = simd::splat<L>(v.y(i)) - d.vy;
+    L ri, rj;
+    rate<L>(in, F, c, rho_i, d.rho, vol_i, vol_j, dx, dy, vijx, vijy, ri, rj);
+    di = di + ri;
+    dj = dj + rj;
+    li = li + laplacian_sum(F, r2, vol_j);
+    lj = lj + laplacian_sum(F, r2, vol_i);
+  }
+};
+
+// The pair force over rho, p, 1 / rho (ir) and the normalisation c (lap):
+// i gets f, j gets -f.
+template <class L, bool Viscosity>
+struct ForcePairs {
+  const Real* rho;
+  const Real* p;
+  const Real* ir;
+  const Real* lap;
+  InterleavedVelocity v;
+  Wendland W;
+  wcsph::PairConstants<L> c;
+  struct Data {
+    L rho, p, ir, lap, vx, vy;
+  };
+  template <class S>
+  SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
+    d.rho = simd::load<L>(rho + j, s.lanes);
+    d.p = simd::load<L>(p + j, s.lanes);
+    d.ir = simd::load<L>(ir + j, s.lanes);
+    d.lap = Viscosity ? simd::load<L>(lap + j, s.lanes) : simd::zero<L>();
+    v.template group<L>(j, s, d.vx, d.vy);
+  }
+  SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& fix,
+                           L& fiy, L& fjx, L& fjy) const {
+    const L vijx = simd::splat<L>(v.x(i)) - d.vx, vijy = simd::splat<L>(v.y(i)) - d.vy;
+    const L ir_i = simd::splat<L>(ir[i]);
+    const L coef = pressure_sum(simd::splat<L>(p[i]), d.p, ir_i, d.ir);
+    const L lap_ij =
+        Viscosity ? simd::splat<L>(Real(0.5)) * (simd::splat<L>(lap[i]) + d.lap) : simd::zero<L>();
+    L fx, fy;
+    wcsph::PairForce<Viscosity, true>::f(in, W, c, simd::splat<L>(rho[i]) + d.rho, coef, ir_i,
+                                         d.ir, dx, dy, r2, vijx, vijy, fx, fy, lap_ij);
+    fix = fix + fx;
+    fiy = fiy + fy;
+    fjx = fjx - fx;
+    fjy = fjy - fy;
+  }
+};
+
+}  // namespace sphfluid::delta
