@@ -140,6 +140,14 @@ def delta_rate(x, v, rho, *, h, m, rho0, c0, delta, gravity=(0.0, -9.81), period
     return rate
 
 
+def surface_floor(x, rho, *, h, m, rho0, period=None):
+    """W26: where the kernel sum (m / rho0) sum_j W_ij (j = i included) is
+    below 0.95, the density is at least rho0."""
+    r = separations(x, period)
+    sums = m / rho0 * wendland(np.sqrt((r**2).sum(-1)), h).sum(1)
+    return np.where((sums < 0.95) & (rho < rho0), rho0, rho)
+
+
 def laplacian_sums(x, rho, *, h, m, period=None):
     """sum_j V_j F_ij r_ij^2 of each particle (W24; grad W = F r)."""
     r = separations(x, period)

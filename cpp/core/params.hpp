@@ -92,7 +92,7 @@ struct SimParams {
   Real background_pressure = 0;  // Pa
   Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
   // wcsph with the density from the continuity equation (docs/method-wcsph.md,
-  // W17-W23) instead of the summation: its diffusion coefficient delta (0:
+  // W17-W26) instead of the summation: its diffusion coefficient delta (0:
   // none) and the coefficient of particle shifting (0: none). The pressure is
   // then not clamped at 0.
   bool continuity = false;

@@ -22,7 +22,7 @@ std::unique_ptr<SphMethod> make(Context& ctx) {
   return std::make_unique<M>(ctx);
 }
 
-// wcsph's density: the summation (W2), or the continuity equation (W17-W23).
+// wcsph's density: the summation (W2), or the continuity equation (W17-W26).
 std::unique_ptr<SphMethod> make_wcsph(Context& ctx) {
   if (ctx.params().continuity) return std::make_unique<DeltaWcsphMethod>(ctx);
   return std::make_unique<WcsphMethod>(ctx);

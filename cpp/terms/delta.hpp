@@ -1,5 +1,5 @@
 // wcsph with the density from the continuity equation (docs/method-wcsph.md,
-// "Continuity density, diffusion and shifting", eqs. W17-W23), each equation
+// "Continuity density, diffusion and shifting", eqs. W17-W26), each equation
 // written once: the density rate of a pair with its diffusion term (W17-W18),
 // the pressure coefficient of the pair force in the sum form (W19, the force
 // itself is W4-W6's PairForce), the shifting sum's pair weight (W21), and the
@@ -46,6 +46,18 @@ SPHFLUID_INLINE void rate(simd::Mask<L> in, L F, const RateConstants<L>& c, L rh
   const L t = zero - c.dc * psi * F;
   di = simd::maskz(in, (rho_i * vg + t) * vol_j);
   dj = simd::maskz(in, (rho_j * vg - t) * vol_i);
+}
+
+// W26: a free surface holds no tension. A particle whose kernel sum (over
+// the fluid and the walls' half-planes, times m / rho0) is below kSurfaceSum
+// is at a free surface (it shifts along it only, W21); there its density is
+// not below rho0 (the pressure of W3 not below the background's): fluid that
+// spreads or breaks away at the surface carries rho0, not a stretched
+// density, into the spray (the summation density's clamp, W3, where the
+// surface is).
+constexpr Real kSurfaceSum = 0.95;
+inline Real surface_floor(Real rho, Real sum, Real rho0) {
+  return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;
 }
 
 // W24: the normalisation of the viscous term (the Laplacian of Morris et al.

@@ -155,7 +155,7 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W23)
+    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W26)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float = DEFAULT_SHIFTING  # wcsph with continuity: shifting coefficient (0: none)
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y

@@ -1,4 +1,4 @@
-// wcsph with the continuity density (docs/method-wcsph.md, W17-W23) as
+// wcsph with the continuity density (docs/method-wcsph.md, W17-W26) as
 // ordered phases, each one parallel loop whose sums do not depend on the
 // thread count: kick-drift-kick (W14) with the density drifted like a
 // position (W22), around the rate (W17-W18, W20), the Tait state equation
@@ -19,10 +19,7 @@
 namespace sphfluid {
 
 namespace {
-// Free-surface detection for the shift (W22): a particle whose kernel sum
-// (over the fluid and the walls' half-planes, times m / rho0) is below this
-// is near a free surface and shifts along it only.
-constexpr Real kSurfaceSum = 0.95;
+using delta::kSurfaceSum;
 // The largest shift of one step, in spacings.
 constexpr Real kShiftCap = 0.2;
 }  // namespace
@@ -214,9 +211,11 @@ void DeltaWcsphMethod::density(Real dt) {
   }
   Real* rho_w = ps.rho.data();
   Real* lap = lap_.data();
+  const Real* sums = sums_.data();
+  const Real rho0 = P_.rho0;
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
-    rho_w[i] += dt * rl[i].x();
+    rho_w[i] = delta::surface_floor(rho_w[i] + dt * rl[i].x(), sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
   }
   ctx_.timer.mark(kDensity);

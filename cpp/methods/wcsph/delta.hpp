@@ -1,5 +1,5 @@
 // wcsph with the density from the continuity equation (docs/method-wcsph.md,
-// W17-W23; `solver.density: "continuity"`): the density is carried from step
+// W17-W26; `solver.density: "continuity"`): the density is carried from step
 // to step and changed by its rate, with a diffusion term (delta-SPH), and the
 // particles may be shifted towards a uniform distribution. Its step as named
 // phases: the first kick and the drift (with the shift of the last
