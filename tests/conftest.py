@@ -8,7 +8,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENES = sorted((ROOT / "scenes").glob("*.json"))
+# the seed's scenes, then the same flows in water (wcsph with the continuity density)
+SCENES = sorted((ROOT / "scenes").glob("*.json")) + sorted((ROOT / "scenes" / "water").glob("*.json"))
+SCENE_IDS = [p.relative_to(ROOT / "scenes").with_suffix("").as_posix() for p in SCENES]
 BENCHMARKS = ROOT / "benchmarks"  # drivers and experiments, not in the wheel
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 

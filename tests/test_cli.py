@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 import sphfluid
-from conftest import BASE_SCENE, SCENES
+from conftest import BASE_SCENE, SCENE_IDS, SCENES
 from sphfluid.cli import main
 
 
@@ -18,7 +18,7 @@ def sphfluid_cmd(*args, env=None):
                           capture_output=True, text=True, timeout=300, env=env, check=False)
 
 
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_run_every_scene_briefly(path, capsys):
     assert main(["run", str(path), "--duration", "0.01", "--quiet"]) == 0
     out = capsys.readouterr().out

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 import sphfluid
-from conftest import BASE_SCENE, SCENES
+from conftest import BASE_SCENE, SCENE_IDS, SCENES
 from sphfluid.scene import SceneError
 
 
@@ -190,7 +190,7 @@ def test_overlapping_regions_make_each_lattice_point_once(scene_dict):
     assert both.sum() == 25 and np.all(vel[both] == 0.0)
 
 
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_bundled_scene_round_trips_through_to_dict(path):
     scene = sphfluid.load_scene(path)
     again = sphfluid.load_scene(json.loads(json.dumps(scene.to_dict())))

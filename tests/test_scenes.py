@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sphfluid
-from conftest import SCENES
+from conftest import SCENE_IDS, SCENES
 
 
 def crossings(x0, x1, walls):
@@ -30,7 +30,7 @@ def test_crossing_check_detects_a_crossing():
     assert list(crossings(x0, x1, walls)) == [0]
 
 
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_scene_runs_a_few_steps(path):
     sim = sphfluid.Simulation(sphfluid.load_scene(path))
     assert sim.n_particles > 100
@@ -40,7 +40,7 @@ def test_scene_runs_a_few_steps(path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("adaptive", [False, True], ids=["fixed-dt", "auto-dt"])
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_scene_is_stable_and_walls_hold_for_its_duration(path, adaptive):
     scene = sphfluid.load_scene(path)
     if adaptive:

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 import sphfluid
-from conftest import ROOT, SCENES
+from conftest import ROOT, SCENE_IDS, SCENES
 from reference import wcsph_forces
 from sphfluid import _core
 from sphfluid.simulation import expected_top_speed, speed_of_sound
@@ -232,7 +232,7 @@ def test_energy_in_a_closed_tank_stays_constant_after_settling():
     assert max(abs(x) for x in drift) < 1e-3
 
 
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_every_scene_runs_with_wcsph_by_changing_the_method_alone(path):
     d = json.loads(path.read_text())
     d["solver"]["method"] = "wcsph"

@@ -388,8 +388,10 @@ def _print_summary(run: _Run) -> None:
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
     print(f"max compression     {run.max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
           "0 if none is above rho0)")
-    print(f"max density error   {run.max_err:.4f} (largest |rho/rho0 - 1| of the same states; at "
-          "a free surface the summed density falls short)")
+    why = ("" if sim.scene.density == "continuity" and sim.scene.method == "wcsph"
+           else "; at a free surface the summed density falls short")
+    print(f"max density error   {run.max_err:.4f} (largest |rho/rho0 - 1| of the same "
+          f"states{why})")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
     if sim.retried_steps:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
