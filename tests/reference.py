@@ -148,6 +148,40 @@ def surface_floor(x, rho, *, h, m, rho0, period=None):
     return np.where((sums < 0.95) & (rho < rho0), rho0, rho)
 
 
+def shift(x, v, rho, *, h, m, rho0, k, dt, period=None):
+    """W21 without walls: dr_i = -k U dt hs sum_j [1 + 0.2 (W_ij / W(dx))^4] grad W_ij V_j,
+    U the largest speed, dx = sqrt(m / rho0); where the kernel sum (m / rho0)
+    sum_j W_ij (j = i included) is below 0.95 only the part across the colour
+    gradient sum_j V_j grad W_ij; at most 0.2 dx and U dt."""
+    r = separations(x, period)
+    rl = np.sqrt((r**2).sum(-1))
+    gw = wendland_grad(r, h)
+    vol = m / rho
+    dx = np.sqrt(m / rho0)
+    w = wendland(rl, h) / wendland(np.array(dx), h)
+    np.fill_diagonal(w, 0.0)
+    s = (((1.0 + 0.2 * w**4) * vol[None, :])[..., None] * gw).sum(1)
+    colour = (vol[None, :, None] * gw).sum(1)
+    speed = np.sqrt((v**2).sum(1)).max()
+    d = -k * speed * dt * 0.5 * h * s
+    surface = m / rho0 * wendland(rl, h).sum(1) < 0.95
+    n = colour / np.maximum(np.hypot(*colour.T), 1e-300)[:, None]
+    d[surface] -= (d[surface] * n[surface]).sum(1)[:, None] * n[surface]
+    size = np.hypot(*d.T)
+    cap = min(0.2 * dx, speed * dt)
+    return d * np.minimum(1.0, cap / np.maximum(size, 1e-300))[:, None]
+
+
+def shift_rate(x, rho, du, *, h, m, period=None):
+    """W27: the shift's share of d rho / dt for particles moved at du on top of
+    the flow, sum_j V_j [2 rho_i du_i + (rho_j - rho_i) du_j] . grad W_ij."""
+    r = separations(x, period)
+    gw = wendland_grad(r, h)
+    vol = m / rho
+    a = 2.0 * rho[:, None, None] * du[:, None, :] + (rho[None, :] - rho[:, None])[..., None] * du[None, :, :]
+    return ((a * gw).sum(-1) * vol[None, :]).sum(1)
+
+
 def laplacian_sums(x, rho, *, h, m, period=None):
     """sum_j V_j F_ij r_ij^2 of each particle (W24; grad W = F r)."""
     r = separations(x, period)
@@ -156,6 +190,12 @@ def laplacian_sums(x, rho, *, h, m, period=None):
     F = np.where(rl < h, -140.0 / (np.pi * h**4) * np.clip(1.0 - rl / h, 0.0, None) ** 3, 0.0)
     np.fill_diagonal(F, 0.0)
     return (F * r2 * (m / rho)[None, :]).sum(1)
+
+
+def continuity_alpha(alpha, eta, rho0, hs, c0):
+    """W28: the scene's alpha less the physical viscosity's equivalent
+    8 nu / (hs c0), not below 0."""
+    return max(0.0, alpha - 8.0 * eta / (rho0 * hs * c0))
 
 
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
@@ -175,6 +215,7 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     eps2 = 0.01 * hs**2
     vr = (vij * r).sum(-1)
     rho_bar = 0.5 * (rho[:, None] + rho[None, :])
+    alpha = continuity_alpha(alpha, eta, rho0, hs, c0)
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
     coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) + pi_ij
     a = -(m * coef[..., None] * gw).sum(1)

@@ -46,8 +46,6 @@ const MethodEntry kMethods[] = {
        require(std::isfinite(p.spacing) && p.spacing >= 0, "spacing must be >= 0");
        require(std::isfinite(p.delta) && p.delta >= 0, "density diffusion delta must be >= 0");
        require(std::isfinite(p.shifting) && p.shifting >= 0, "shifting must be >= 0");
-       require(!(p.continuity && p.sigma > 0),
-               "wcsph with the continuity density has no surface tension yet");
      },
      make_wcsph},
 };

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <type_traits>
@@ -119,28 +120,28 @@ class CellPairs {
   }
 #endif
 
-  // The pair passes' traversal: each block of rows by one thread, its a[]
-  // zeroed first and finish(first, last) called on its particles at the end;
-  // in it each cell's particles a tile of up to kPairTile at a time:
-  // tile(k, q0, cx, cy, s0, s1, runs), k a std::integral_constant of the
-  // tile's size.
-  template <class Tile, class Finish>
-  void for_each_pair_tile(const CellGrid& grid, Vec2* a, int threads, Tile&& tile,
-                          Finish& finish) const {
+  // The pair passes' traversal: each block of rows by one thread, its part of
+  // each output zeroed first and finish(first, last) called on its particles
+  // at the end; in it each cell's particles a tile of up to MaxTile at a
+  // time: tile(k, q0, cx, cy, s0, s1, runs), k a std::integral_constant of
+  // the tile's size. (Three outputs at once in tiles of 2 or 3 ran 9 and 4 %
+  // slower than in tiles of 4 on the 10k dam break with shifting.)
+  template <int MaxTile, std::size_t N, class Tile, class Finish>
+  void for_each_pair_tile(const CellGrid& grid, const std::array<Vec2*, N>& outs, int threads,
+                          Tile&& tile, Finish& finish) const {
     const Index nx = grid.nx(), ny = grid.ny();
     const Index* start = grid.cell_starts();
     const Index nb = pair_blocks();
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (Index b = 0; b < nb; ++b) {
       const Index y0 = pair_rows_[b], y1 = pair_rows_[b + 1];
-      std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
+      for (Vec2* a : outs) std::fill(a + start[y0 * nx], a + start[y1 * nx], Vec2::Zero());
       for (Index cy = y0; cy < y1; ++cy) {
         for (Index cx = 0; cx < nx; ++cx) {
           const Index c = cy * nx + cx, s0 = start[c], s1 = start[c + 1];
           const Runs runs = runs_of(start, nx, ny, cx, cy, y0, y1);
-          for (Index q0 = s0; q0 < s1; q0 += kPairTile)
-            with_tile<kPairTile>(s1 - q0,
-                                 [&](auto k) { tile(k, q0, cx, cy, s0, s1, runs); });
+          for (Index q0 = s0; q0 < s1; q0 += MaxTile)
+            with_tile<MaxTile>(s1 - q0, [&](auto k) { tile(k, q0, cx, cy, s0, s1, runs); });
         }
       }
       finish(start[y0 * nx], start[y1 * nx]);
@@ -156,24 +157,51 @@ class CellPairs {
   template <class Frame, class Pair, class Finish = NoFinish>
   void pair_sums(const CellGrid& grid, const Frame& frame, const Pair& pair, Vec2* a,
                  int threads, Finish finish = {}) const {
+    pair_sums(grid, frame, OneOutput<Pair>{pair}, std::array<Vec2*, 1>{a}, threads, finish);
+  }
+  // The same into N outputs at once (Pair::kOutputs = N): pair.add takes
+  // arrays of N lanes for each of fix, fiy, fjx, fjy, output o's sums in
+  // outs[o]. A frame that keeps j's shares itself (CellFloatFrame) takes one.
+  template <class Frame, class Pair, std::size_t N, class Finish = NoFinish>
+  void pair_sums(const CellGrid& grid, const Frame& frame, const Pair& pair,
+                 const std::array<Vec2*, N>& outs, int threads, Finish finish = {}) const {
     using L = typename Frame::Lane;
+    static_assert(N == Pair::kOutputs && N <= Frame::kMaxOutputs);
     auto block_done = [&](Index i0, Index i1) {
-      frame.block_done(i0, i1, a);
+      frame.block_done(i0, i1, outs[0]);
       finish(i0, i1);
     };
-    for_each_pair_tile(grid, a, threads, [&](auto tile, Index q0, Index cx, Index cy, Index s0,
-                                             Index s1, const Runs& runs) {
+    for_each_pair_tile<kPairTile>(grid, outs, threads, [&](auto tile, Index q0, Index cx, Index cy,
+                                                Index s0, Index s1, const Runs& runs) {
       constexpr int k = decltype(tile)::value;
-      L fx[k], fy[k];
-      for (int q = 0; q < k; ++q) fx[q] = fy[q] = simd::zero<L>();
+      L fx[N][k], fy[N][k];
+      for (std::size_t o = 0; o < N; ++o)
+        for (int q = 0; q < k; ++q) fx[o][q] = fy[o][q] = simd::zero<L>();
       frame.for_runs(grid, cx, cy, q0, s0, s1, runs, [&](const auto& run, Index j0, Index j1,
                                                          bool own, bool scatter) {
-        pair_run<k>(frame, pair, run, a, q0, j0, j1, own, scatter, fx, fy);
+        pair_run<k>(frame, pair, run, outs, q0, j0, j1, own, scatter, fx, fy);
       });
-      frame.add_tile(q0, k, fx, fy, a);
+      for (std::size_t o = 0; o < N; ++o) frame.add_tile(q0, k, fx[o], fy[o], outs[o]);
     }, block_done);
   }
 #endif
+
+  // A pair interaction of one output as one of N = 1.
+  template <class Pair>
+  struct OneOutput {
+    static constexpr std::size_t kOutputs = 1;
+    using Data = typename Pair::Data;
+    const Pair& pair;
+    template <class S>
+    SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
+      pair.load(j, s, d);
+    }
+    template <class L, class M>
+    SPHFLUID_INLINE void add(Index i, const Data& d, M in, L dx, L dy, L r2, L (&fix)[1],
+                             L (&fiy)[1], L (&fjx)[1], L (&fjy)[1]) const {
+      pair.add(i, d, in, dx, dy, r2, fix[0], fiy[0], fjx[0], fjy[0]);
+    }
+  };
 
  private:
   // Cuts rows [0, ny) into at most `count` blocks: block k starts at the first
@@ -209,13 +237,15 @@ class CellPairs {
 
 #if SPHFLUID_AVX512
   // A tile's K particles from q0 against the run [j0, j1) of a frame, each
-  // group of lanes loaded once: i's shares into fx, fy, j's added to the
-  // frame's sums (where `scatter`); `own`: the run of the tile's own cells
-  // from q0 + 1 on, whose lanes before a tile particle are not its pairs.
-  template <int K, class Frame, class Pair, class Run, class L = typename Frame::Lane>
+  // group of lanes loaded once: i's shares into fx, fy (per output), j's added
+  // to the frame's sums (where `scatter`); `own`: the run of the tile's own
+  // cells from q0 + 1 on, whose lanes before a tile particle are not its pairs.
+  template <int K, class Frame, class Pair, class Run, std::size_t N,
+            class L = typename Frame::Lane>
   SPHFLUID_INLINE static void pair_run(const Frame& frame, const Pair& pair, const Run& run,
-                                       Vec2* a, Index q0, Index j0, Index j1, bool own,
-                                       bool scatter, L (&fx)[K], L (&fy)[K]) {
+                                       const std::array<Vec2*, N>& outs, Index q0, Index j0,
+                                       Index j1, bool own, bool scatter, L (&fx)[N][K],
+                                       L (&fy)[N][K]) {
     constexpr Index kW = simd::kLanes<L>;
     const L zero = simd::zero<L>(), h2 = frame.support2();
     for (Index j = j0; j < j1; j += kW) {
@@ -224,7 +254,8 @@ class CellPairs {
       run.positions(j, span, at_x, at_y);
       typename Pair::Data data;
       pair.load(j, span, data);
-      L fjx = zero, fjy = zero;
+      L fjx[N], fjy[N];
+      for (std::size_t o = 0; o < N; ++o) fjx[o] = fjy[o] = zero;
       for (int q = 0; q < K; ++q) {
         const Index i = q0 + q;
         const simd::Mask8 live = own ? span.lanes & after<kW>(i, j) : span.lanes;
@@ -235,9 +266,13 @@ class CellPairs {
         const L r2 = simd::fmadd(dx, dx, dy * dy);
         const simd::Mask8 in = simd::lt(live, r2, h2);
         if (!in) continue;
-        pair.add(i, data, in, dx, dy, r2, fx[q], fy[q], fjx, fjy);
+        L ix[N], iy[N];
+        for (std::size_t o = 0; o < N; ++o) ix[o] = fx[o][q], iy[o] = fy[o][q];
+        pair.add(i, data, in, dx, dy, r2, ix, iy, fjx, fjy);
+        for (std::size_t o = 0; o < N; ++o) fx[o][q] = ix[o], fy[o][q] = iy[o];
       }
-      if (scatter) frame.add_shares(j, span, fjx, fjy, a);
+      if (scatter)
+        for (std::size_t o = 0; o < N; ++o) frame.add_shares(j, span, fjx[o], fjy[o], outs[o]);
     }
   }
 #endif

@@ -80,6 +80,7 @@ class PositionFrame {
  public:
   using Lane = L;
   using Span = simd::Span<L>;
+  static constexpr std::size_t kMaxOutputs = 8;  // every share goes to its output
   PositionFrame(const Vec2* x, Real h) : x_(x), h2_(simd::splat<L>(h * h)) {}
 
   SPHFLUID_INLINE L support2() const { return h2_; }
@@ -137,6 +138,7 @@ class CellFloatFrame {
  public:
   using Lane = simd::F8;
   using Span = simd::Span8;
+  static constexpr std::size_t kMaxOutputs = 1;  // j's shares in the frame's jx, jy
   // h: the support in metres; the frame takes it in cells (a hair below 1:
   // the cells are a hair wider than h), squared, as the largest float not
   // above it, so that no pair at r >= h counts.

@@ -99,6 +99,20 @@ void add_wall_friction(const WallTables& t, Row<Vec2> ghosts, Real eta, Real c_i
   f -= (2 * eta * c_i * inv_i) * sum;
 }
 
+// W28: the artificial viscosity's alpha with the continuity density: only
+// what the physical viscosity leaves to add. Monaghan's term (W5) acts in the
+// continuum as a kinematic viscosity alpha hs c0 / 8 in 2D (Monaghan 2005);
+// the fluid's own nu = eta / rho0 stands for 8 nu / (hs c0) of it, and
+// alpha tops it up to the scene's alpha:
+//   alpha' = max(0, alpha - 8 eta / (rho0 hs c0)).
+// A water flow keeps its alpha (nu = 1e-6 is nothing at any resolution); a
+// laminar flow resolved by its viscosity (the vortex, the channel, the
+// cavity) runs with none.
+inline Real artificial_alpha(Real alpha, Real eta, Real rho0, Real hs, Real c0) {
+  const Real top_up = alpha - 8 * eta / (rho0 * hs * c0);
+  return top_up > 0 ? top_up : Real(0);
+}
+
 // W19: the pressure coefficient of the pair force in the sum form,
 // (p_i + p_j) / (rho_i rho_j), which takes W4's p_i/rho_i^2 + p_j/rho_j^2
 // in PairForce (terms/wcsph.hpp); ir = 1 / rho.
@@ -115,6 +129,27 @@ template <class L>
 SPHFLUID_INLINE L shift_weight(const Wendland& W, L r, L inv_wdx) {
   const L w = W.value_of(r) * inv_wdx, w2 = w * w;
   return simd::fmadd(simd::splat<L>(kShiftR), w2 * w2, simd::splat<L>(1)) * W.gradient_factor(r);
+}
+
+// W27: the shift's share of the rate (Sun et al. 2019's consistent shifting).
+// A particle that a step shifts by dr moves at v + du, du = dr / dt, not at
+// the fluid's v: its density changes by the divergence of its own motion and
+// by the flux of the shift through it,
+//   D_i += -rho_i div(du)_i + div(rho du)_i
+//        = sum_j V_j [rho_i (du_i - du_j) + (rho_i du_i + rho_j du_j)] . grad W_ij,
+// (the continuum's du . grad rho), so that the density follows the particles'
+// spacing where the shift changes it. The pair's shares for i and j on the
+// lanes of `in` (vol_i, vol_j zero elsewhere), grad W_ij = F r_ij.
+template <class L>
+SPHFLUID_INLINE void shift_rate(L F, L rho_i, L rho_j, L vol_i, L vol_j, L dx, L dy, L dui_x,
+                                L dui_y, L duj_x, L duj_y, L& ci, L& cj) {
+  const L two = simd::splat<L>(2), drho = rho_j - rho_i;
+  const L ax = simd::fmadd(two * rho_i, dui_x, drho * duj_x);
+  const L ay = simd::fmadd(two * rho_i, dui_y, drho * duj_y);
+  const L bx = simd::fnmadd(drho, dui_x, two * rho_j * duj_x);
+  const L by = simd::fnmadd(drho, dui_y, two * rho_j * duj_y);
+  ci = F * simd::fmadd(ax, dx, ay * dy) * vol_j;
+  cj = simd::zero<L>() - F * simd::fmadd(bx, dx, by * dy) * vol_i;
 }
 
 // W20: the walls' share of a particle's rate and the hydrostatic part of their

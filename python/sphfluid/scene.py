@@ -155,7 +155,7 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W26)
+    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W28)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float = DEFAULT_SHIFTING  # wcsph with continuity: shifting coefficient (0: none)
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
@@ -385,7 +385,6 @@ class _Validator:
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
-        self.check_continuity(solver, fluid.sigma)
         self.check_sliding_walls(solver)
         self.check_regions_inside(domain, regions)
         if res.dx and regions and not self.problems:
@@ -713,14 +712,6 @@ class _Validator:
                 self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
                           f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
                           f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
-
-    def check_continuity(self, solver: _Solver, sigma: float | None) -> None:
-        """wcsph's continuity density runs without surface tension for now."""
-        if not (solver.method == "wcsph" and solver.density == "continuity"):
-            return
-        if sigma:
-            self.fail("solver.density", "surface tension runs with the summation density "
-                      'only (docs/method-wcsph.md); remove "density" or "surface_tension"')
 
     def check_tension_lattice(self, domain: _Domain, res: _Resolution, method: Any,
                               sigma: float | None) -> None:

@@ -7,6 +7,7 @@
 #include "methods/wcsph/delta.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -22,6 +23,12 @@ namespace {
 using delta::kSurfaceSum;
 // The largest shift of one step, in spacings.
 constexpr Real kShiftCap = 0.2;
+// ... and at most this fraction of the largest speed times dt: a shift faster
+// than the flow makes W27's rate outrun the pressure (the water dam break blew
+// up at t = 0.69 s with 0.2 dx alone, which let particles shift at up to
+// 27 m/s; half the largest speed made the cavity's error at 30 across 0.044
+// against 0.034).
+constexpr Real kShiftSpeed = 1.0;
 }  // namespace
 
 DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
@@ -29,6 +36,14 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   walls_.build(P_.spacing, P_.mass / P_.rho0, true);  // rows fixed to the wall (W20)
   const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
   inv_wdx_ = 1 / kernel_.value(dx);
+  alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
+  // the rows' share of the shifting sum (W21), with the fluid's pair weight
+  walls_.build_weighted_line(
+      [&](Real r) { return delta::shift_weight(kernel_, r, inv_wdx_); }, P_.mass / P_.rho0);
+  if (P_.shifting > 0)  // the shift moves with its particle through the sort
+    shift_ = std::make_unique<Field<Vec2>>(ctx.ps, "shift", FieldKind::kState);
+  if (P_.sigma > 0)  // W10-W12; the colour kernel's support 4 dx (docs, "Surface tension")
+    surface_ = SurfaceEnergy(P_.sigma, 4 * dx, dx, P_.domain_min, ctx.box);
   ctx_.ps.rho.set_kind(FieldKind::kState);  // carried from step to step
 }
 
@@ -46,7 +61,6 @@ void DeltaWcsphMethod::select(unsigned features) {
 void DeltaWcsphMethod::particles_added(Index first) {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
-  shift_.clear();
   const Real gl = P_.gravity.norm();
   const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
                           (P_.periodic_y && P_.gravity.y() != 0);
@@ -84,8 +98,8 @@ Real DeltaWcsphMethod::elastic_energy() const {
 std::size_t DeltaWcsphMethod::bytes() const {
   return (sums_.capacity() + lap_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
          (rate_lap_.capacity() + shift_sum_.capacity() + colour_.capacity() +
-          shift_.capacity()) * sizeof(Vec2) +
-         walls_.bytes();
+          0) * sizeof(Vec2) +
+         walls_.bytes() + surface_.bytes();
 }
 
 // Kick-drift-kick with the density drifted like a position (W22): v += dt/2 a;
@@ -96,8 +110,9 @@ void DeltaWcsphMethod::step_impl(Real dt, Real dt_cap) {
   dt = ctx_.step_size(dt, dt_cap);
   const Real half = Real(0.5) * dt;
   const bool shifted = P_.shifting > 0 && shift_for<F>(dt);
+  shift_per_dt_ = shifted ? 1 / dt : 0;
   ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, half,
-                                                           shifted ? shift_.data() : nullptr);
+                                                           shifted ? shift_->data() : nullptr);
   ctx_.timer.mark(kIntegrate);
   ctx_.leave_domain();
   ctx_.timer.mark(kDomain);
@@ -110,14 +125,18 @@ void DeltaWcsphMethod::evaluate_kick(Real dt, Real half) {
   ctx_.timer.start();
   neighbours<F>();
   density<F>(dt);
+  if constexpr ((F & kSurfaceTension) != 0) {
+    surface_.evaluate(ctx_.ps.x.data(), ctx_.size(), P_.mass, ctx_.team());
+    ctx_.timer.mark(kForces);
+  }
   state();
   forces<F>();
-  ctx_.add_gravity_and_kick(half, nullptr);
+  ctx_.add_gravity_and_kick(half, (F & kSurfaceTension) != 0 ? surface_.accelerations() : nullptr);
   ctx_.timer.mark(kForces);
 }
 
 // The sort and the pairs' structure (the kernel sums go to sums_, not to the
-// density): cell clusters where they run and nothing shifts, else full lists;
+// density): cell clusters where they run, else full lists;
 // and the walls' ghosts with their share of the kernel sums.
 template <unsigned F>
 void DeltaWcsphMethod::neighbours() {
@@ -125,11 +144,9 @@ void DeltaWcsphMethod::neighbours() {
   sums_.resize(ps.size());
   by_cells_ = false;
   if constexpr (by_cells(F)) {
-    if (!(P_.shifting > 0)) {
-      by_cells_ = true;
-      ctx_.search.clusters(ps, P_.h, P_.mass / P_.rho0, ctx_.team(), weight_, ctx_.timer,
-                           sums_.data());
-    }
+    by_cells_ = true;
+    ctx_.search.clusters(ps, P_.h, P_.mass / P_.rho0, ctx_.team(), weight_, ctx_.timer,
+                         sums_.data());
   }
   if (!by_cells_)
     ctx_.search.lists<(F & kPeriodic) != 0, false>(ps, P_.h, P_.mass / P_.rho0, ctx_.team(),
@@ -143,6 +160,50 @@ void DeltaWcsphMethod::neighbours() {
     });
     ctx_.timer.mark(kGhosts);
   }
+}
+
+// The rate pass's pair sums into rl (rate, W24's sum): by cell clusters or
+// over full lists; with Shift, W27's share of this step's shifts.
+template <unsigned F, bool Shift, class Constants>
+void DeltaWcsphMethod::rate_pass(Constants constants, Vec2* rl) {
+  ParticleSet& ps = ctx_.ps;
+  auto pairs = [&](auto lane) {
+    using L = decltype(lane);
+    delta::RatePairs<L, Shift> p{ps.rho.data(), inv_rho_.data(), {ps.v.data()}, kernel_,
+                                 constants(lane)};
+    if constexpr (Shift) {
+      p.shift = {shift_->data()};
+      p.per_dt = simd::splat<L>(shift_per_dt_);
+    }
+    return p;
+  };
+#if SPHFLUID_AVX512
+  if constexpr (by_cells(F)) {
+    if (by_cells_) {
+      const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
+      ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pairs(simd::D8{}), rl,
+                                    ctx_.team());
+      return;
+    }
+  }
+#endif
+  using Pairs = delta::RatePairs<Real, Shift>;
+  const Pairs rates = pairs(Real{});
+  struct Visitor {
+    const Pairs& rates;
+    Vec2* rl;
+    Vec2 begin(Index) const { return Vec2::Zero(); }
+    void pair(Vec2& s, Index i, Index j, const Vec2& r, Real r2, bool) const {
+      typename Pairs::Data d;
+      rates.load(j, Span1{}, d);
+      Real dj = 0, lj = 0;
+      rates.add(i, d, true, r.x(), r.y(), r2, s.x(), s.y(), dj, lj);
+    }
+    void end(Index i, const Vec2& s) const { rl[i] = s; }
+  } visitor{rates, rl};
+  const PeriodicBox& box = ctx_.box;
+  pair_loops::gather(ctx_.search.lists(), ps.x.data(), ps.size(), ctx_.team(),
+                     [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
 }
 
 // The rate of each particle's density (W17-W18, the walls' W20) from the
@@ -169,35 +230,11 @@ void DeltaWcsphMethod::density(Real dt) {
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
     for (Index i = 0; i < n; ++i) ir[i] = 1 / rho[i];
   }
-  bool done = false;
-#if SPHFLUID_AVX512
-  if constexpr (by_cells(F)) {
-    if (by_cells_) {
-      const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
-      const delta::RatePairs<simd::D8> pair{ps.rho.data(), inv_rho_.data(), {ps.v.data()}, kernel_,
-                                            constants(simd::D8{})};
-      ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pair, rl, ctx_.team());
-      done = true;
-    }
-  }
-#endif
-  if (!done) {
-    const delta::RatePairs<Real> pair{ps.rho.data(), inv_rho_.data(), {ps.v.data()}, kernel_, constants(Real{})};
-    struct Visitor {
-      const delta::RatePairs<Real>& rates;
-      Vec2* rl;
-      Vec2 begin(Index) const { return Vec2::Zero(); }
-      void pair(Vec2& s, Index i, Index j, const Vec2& r, Real r2, bool) const {
-        typename delta::RatePairs<Real>::Data d;
-        rates.load(j, Span1{}, d);
-        Real dj = 0, lj = 0;
-        rates.add(i, d, true, r.x(), r.y(), r2, s.x(), s.y(), dj, lj);
-      }
-      void end(Index i, const Vec2& s) const { rl[i] = s; }
-    } visitor{pair, rl};
-    const PeriodicBox& box = ctx_.box;
-    pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
-                       [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
+  // W27 where this step's drift shifted
+  if (shift_per_dt_ > 0) {
+    rate_pass<F, true>(constants, rl);
+  } else {
+    rate_pass<F, false>(constants, rl);
   }
   const Real* rho = ps.rho.data();
   const Vec2* v = ps.v.data();
@@ -241,45 +278,71 @@ void DeltaWcsphMethod::state() {
   ctx_.timer.mark(kDensity);
 }
 
-// The pair forces (W19 with W4-W6): by cell clusters, each pair once, the
-// walls' share (W8-W9, W20) after; or over full lists, with the shifting sums
-// (W21) and the colour gradient, each particle's walls right after its pairs.
 template <unsigned F>
-void DeltaWcsphMethod::forces() {
-  constexpr bool kVisc = (F & kViscosity) != 0;
-  ParticleSet& ps = ctx_.ps;
-  const Index n = ps.size();
-  auto pairs = [&](auto lane) {
-    using L = decltype(lane);
-    return delta::ForcePairs<L, kVisc>{ps.rho.data(), ps.p.data(), inv_rho_.data(), lap_.data(),
-                                       {ps.v.data()}, kernel_, wcsph::pair_constants<L>(P_)};
-  };
+delta::ForcePairs<Real, (F & kViscosity) != 0> DeltaWcsphMethod::force_pairs() const {
+  return force_pairs<F, Real>();
+}
+template <unsigned F, class L>
+delta::ForcePairs<L, (F & kViscosity) != 0> DeltaWcsphMethod::force_pairs() const {
+  const ParticleSet& ps = ctx_.ps;
+  return {ps.rho.data(), ps.p.data(), inv_rho_.data(), lap_.data(), {ps.v.data()}, kernel_,
+          constants<L>()};
+}
+
+// The force pass by cell clusters: with shifting, its three sums at once.
+// Returns false where the clusters do not run.
+template <unsigned F>
+bool DeltaWcsphMethod::forces_by_cells() {
 #if SPHFLUID_AVX512
   if constexpr (by_cells(F)) {
-    if (by_cells_) {
-      // eight lanes a group (four: 10 % slower at 10k, three spacings' support)
-      const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
-      ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pairs(simd::D8{}), ps.a.data(),
-                                    ctx_.team());
-      if constexpr ((F & kWalls) != 0) {
-        Vec2* a = ps.a.data();
-        ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
-          Vec2 f = a[i];
-          add_wall_force<F>(i, ghosts, f);
-          a[i] = f;
-        });
-      }
-      ctx_.timer.mark(kForces);
-      return;
+    if (!by_cells_) return false;
+    constexpr bool kVisc = (F & kViscosity) != 0;
+    ParticleSet& ps = ctx_.ps;
+    const bool shifting = P_.shifting > 0;
+    // eight lanes a group (four: 10 % slower at 10k, three spacings' support)
+    const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
+    const CellPairs& cells = ctx_.search.cells();
+    Vec2* a = ps.a.data();
+    if (shifting) {
+      const delta::ShiftForcePairs<simd::D8, kVisc> pair{force_pairs<F, simd::D8>(),
+                                                         simd::splat<simd::D8>(inv_wdx_)};
+      cells.pair_sums(ctx_.search.grid(), frame, pair,
+                      std::array<Vec2*, 3>{a, shift_sum_.data(), colour_.data()}, ctx_.team());
+    } else {
+      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8>(), a, ctx_.team());
     }
+    if constexpr ((F & kWalls) != 0) {
+      ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+        Vec2 f = a[i];
+        add_wall_force<F>(i, ghosts, f);
+        a[i] = f;
+        if (shifting) add_wall_shift(ghosts, shift_sum_[i]);
+      });
+    }
+    return true;
   }
 #endif
+  return false;
+}
+
+// The pair forces (W19 with W4-W6) with, where something shifts, the
+// shifting sums (W21) and the colour gradient: by cell clusters, each pair
+// once, the walls' share (W8-W9, W20) after; or over full lists, each
+// particle's walls right after its pairs.
+template <unsigned F>
+void DeltaWcsphMethod::forces() {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
   shift_sum_.resize(n);
   colour_.resize(n);
+  if (forces_by_cells<F>()) {
+    ctx_.timer.mark(kForces);
+    return;
+  }
   struct Sums {
     Vec2 f, s, c;
   };
-  const auto force = pairs(Real{});
+  const auto force = force_pairs<F>();
   const Real* ir = inv_rho_.data();
   const Real m = P_.mass, inv_wdx = inv_wdx_;
   const Wendland& W = kernel_;
@@ -297,11 +360,7 @@ void DeltaWcsphMethod::forces() {
     if constexpr ((F & kWalls) != 0) {
       const Row<Vec2> ghosts = ctx_.ghosts.row(i);
       add_wall_force<F>(i, ghosts, f);
-      // the walls' half-planes in the shifting sum: sum V grad W = -Psi n
-      for (const Vec2& g : ghosts) {
-        const Real gl = g.norm();
-        if (gl > 0) s -= (walls_.wall_line(gl) / gl) * g;
-      }
+      add_wall_shift(ghosts, s);
     }
     ps.a[i] = f;
     shift_sum_[i] = s;
@@ -322,6 +381,20 @@ void DeltaWcsphMethod::forces() {
   ctx_.timer.mark(kForces);
 }
 
+// The walls' rows in the shifting sum (W21) of a particle with these ghosts:
+// per half-plane -Psi_w(d) n with the sum's own pair weight, a corner's
+// quadrant taken out once.
+void DeltaWcsphMethod::add_wall_shift(Row<Vec2> ghosts, Vec2& s) const {
+  for (const Vec2& g : ghosts) {
+    const Real gl = g.norm();
+    if (gl > 0) s -= (walls_.wall_weighted_line(gl) / gl) * g;
+  }
+  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    s += (walls_.corner_weighted_line(d1, d2) / d1) * r1 +
+         (walls_.corner_weighted_line(d2, d1) / d2) * r2;
+  });
+}
+
 // The walls' push on particle i (W8-W9's pressure and artificial viscosity,
 // W25's friction, W20's hydrostatic part) added to f.
 template <unsigned F>
@@ -331,7 +404,7 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
   const Real* ir = inv_rho_.data();
   const Vec2* v = ps.v.data();
   // W8 and W9's artificial viscosity; the physical one by W25's rows
-  wcsph::add_wall_force<false>(walls_, kernel_, wcsph::pair_constants<Real>(P_), P_.rho0, ghosts,
+  wcsph::add_wall_force<false>(walls_, kernel_, constants<Real>(), P_.rho0, ghosts,
                                p[i] * ir[i] * ir[i], ir[i], v[i], f);
   if constexpr ((F & kViscosity) != 0) {
     const Vec2 xi = ps.x[i];
@@ -345,11 +418,11 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
 }
 
 // W21: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),
-// at most kShiftCap spacings; near a free surface (kernel sum below
-// kSurfaceSum) only its part along the surface, whose normal is minus the
-// colour gradient; none within h of a wall (a shift moves no density, and the
-// walls' share of it follows the flow's velocity alone). Returns false where
-// nothing shifts.
+// at most kShiftCap spacings and kShiftSpeed U dt; near a free surface (kernel
+// sum below kSurfaceSum) only its part along the surface, whose normal is
+// minus the colour gradient; none within h of a wall (the walls' rows rest,
+// and their share of the rate follows the flow's velocity alone). Returns
+// false where nothing shifts.
 template <unsigned F>
 bool DeltaWcsphMethod::shift_for(Real dt) {
   const ParticleSet& ps = ctx_.ps;
@@ -360,8 +433,7 @@ bool DeltaWcsphMethod::shift_for(Real dt) {
   const Real scale = -P_.shifting * std::sqrt(v2) * dt * Real(0.5) * P_.h;
   if (!(scale < 0)) return false;
   const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
-  const Real cap = kShiftCap * dx;
-  shift_.resize(n);
+  const Real cap = std::min(kShiftCap * dx, kShiftSpeed * std::sqrt(v2) * dt);
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
     Vec2 d = scale * shift_sum_[i];
@@ -380,7 +452,7 @@ bool DeltaWcsphMethod::shift_for(Real dt) {
     }
     const Real dl = d.norm();
     if (dl > cap) d *= cap / dl;
-    shift_[i] = d;
+    (*shift_)[i] = d;
   }
   return true;
 }

@@ -11,11 +11,14 @@
 // across periodic seams or with shifting, over full neighbour lists.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "context.hpp"
 #include "core/features.hpp"
 #include "methods/method.hpp"
+#include "methods/wcsph/delta_pairs.hpp"
+#include "methods/wcsph/surface_energy.hpp"
 #include "terms/delta.hpp"
 #include "terms/wall_tables.hpp"
 #include "terms/wcsph.hpp"
@@ -32,6 +35,7 @@ class DeltaWcsphMethod final : public SphMethod {
   void evaluate() override { eval_fn_(*this); }
   void particles_added(Index first) override;
   Real elastic_energy() const override;
+  Real surface_energy() const override { return surface_.energy(); }
   std::size_t bytes() const override;
 
   struct Steps {
@@ -54,9 +58,21 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void evaluate_kick(Real dt, Real half);
   template <unsigned F> void neighbours();
   template <unsigned F> void density(Real dt);
+  template <unsigned F, bool Shift, class Constants> void rate_pass(Constants constants, Vec2* rl);
+  void add_wall_shift(Row<Vec2> ghosts, Vec2& s) const;
   void state();
   template <unsigned F> void forces();
+  template <unsigned F> bool forces_by_cells();
+  template <unsigned F> delta::ForcePairs<Real, (F & kViscosity) != 0> force_pairs() const;
+  template <unsigned F, class L> delta::ForcePairs<L, (F & kViscosity) != 0> force_pairs() const;
   template <unsigned F> void add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const;
+  // W4-W6's constants with W28's alpha.
+  template <class L>
+  wcsph::PairConstants<L> constants() const {
+    wcsph::PairConstants<L> c = wcsph::pair_constants<L>(P_);
+    c.av = simd::splat<L>(alpha_ * P_.c0 * Real(0.5) * P_.h);
+    return c;
+  }
   // Whether the fluid pairs can run by cell clusters (neighbours/cell_pairs.hpp):
   // where the lanes run and without periodic seams; they do when nothing
   // shifts (the shifting sums ride on the list loops).
@@ -74,9 +90,11 @@ class DeltaWcsphMethod final : public SphMethod {
   Wendland kernel_;
   WendlandWeight weight_;
   WallTables walls_;
+  SurfaceEnergy surface_;  // the tension (W10-W12; inactive without it)
   StepFn* step_fn_ = nullptr;
   EvalFn* eval_fn_ = nullptr;
   Real inv_wdx_;                  // 1 / W(dx), the shifting's reference
+  Real alpha_;                    // the artificial viscosity's alpha (W28)
   std::vector<Real> sums_;        // kernel sums over the fluid and walls, / rho0
   bool by_cells_ = false;         // this evaluation's pairs run by cell clusters
   std::vector<Vec2> rate_lap_;    // (d rho / dt, W24's sum)
@@ -84,7 +102,8 @@ class DeltaWcsphMethod final : public SphMethod {
   std::vector<Real> inv_rho_;     // 1 / rho
   std::vector<Vec2> shift_sum_;   // W21's sum of each particle
   std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
-  std::vector<Vec2> shift_;       // the next drift's shift, m
+  std::unique_ptr<Field<Vec2>> shift_;  // the next drift's shift, m (with shifting only)
+  Real shift_per_dt_ = 0;         // 1 / dt of a step whose drift shifted, else 0
 };
 
 }  // namespace sphfluid

@@ -14,21 +14,25 @@
 namespace sphfluid::delta {
 
 // i's (rate, Laplacian sum) into (di, li), j's into (dj, lj); ir = 1 / rho.
-template <class L>
+// With Shift, also W27's share from the step's shifts (shift, times per_dt).
+template <class L, bool Shift = false>
 struct RatePairs {
   const Real* rho;
   const Real* ir;
   InterleavedVelocity v;
   Wendland W;
   RateConstants<L> c;
+  InterleavedVelocity shift = {nullptr};
+  L per_dt = simd::zero<L>();
   struct Data {
-    L rho, vol, vx, vy;
+    L rho, vol, vx, vy, sx, sy;
   };
   template <class S>
   SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
     d.rho = simd::load<L>(rho + j, s.lanes);
     d.vol = c.m * simd::load<L>(ir + j, s.lanes);
     v.template group<L>(j, s, d.vx, d.vy);
+    if constexpr (Shift) shift.template group<L>(j, s, d.sx, d.sy);
   }
   SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& di,
                            L& li, L& dj, L& lj) const {
@@ -38,6 +42,13 @@ struct RatePairs {
     const L vijx = simd::splat<L>(v.x(i)) - d.vx, vijy = simd::splat<L>(v.y(i)) - d.vy;
     L ri, rj;
     rate<L>(in, F, c, rho_i, d.rho, vol_i, vol_j, dx, dy, vijx, vijy, ri, rj);
+    if constexpr (Shift) {
+      L si, sj;
+      shift_rate<L>(F, rho_i, d.rho, vol_i, vol_j, dx, dy, per_dt * simd::splat<L>(shift.x(i)),
+                    per_dt * simd::splat<L>(shift.y(i)), per_dt * d.sx, per_dt * d.sy, si, sj);
+      ri = ri + si;
+      rj = rj + sj;
+    }
     di = di + ri;
     dj = dj + rj;
     li = li + laplacian_sum(F, r2, vol_j);
@@ -81,6 +92,41 @@ struct ForcePairs {
     fiy = fiy + fy;
     fjx = fjx - fx;
     fjy = fjy - fy;
+  }
+};
+
+}  // namespace sphfluid::delta
+
+namespace sphfluid::delta {
+
+// With shifting, the force pass's three sums at once: the pair force (as
+// ForcePairs), W21's shifting sum sum_j w_ij V_j r_ij (w the shifting weight
+// times F) and the colour gradient sum_j F_ij V_j r_ij, into outputs 0, 1, 2;
+// j's shares are the same with V_i and r_ji.
+template <class L, bool Viscosity>
+struct ShiftForcePairs {
+  static constexpr std::size_t kOutputs = 3;
+  ForcePairs<L, Viscosity> force;
+  L inv_wdx;
+  using Data = typename ForcePairs<L, Viscosity>::Data;
+  template <class S>
+  SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
+    force.load(j, s, d);
+  }
+  SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2,
+                           L (&ix)[3], L (&iy)[3], L (&jx)[3], L (&jy)[3]) const {
+    force.add(i, d, in, dx, dy, r2, ix[0], iy[0], jx[0], jy[0]);
+    const L r = simd::sqrt(r2), m = force.c.m;
+    const L vol_j = simd::maskz(in, m * d.ir), vol_i = simd::maskz(in, m * simd::splat<L>(force.ir[i]));
+    const L w = shift_weight(force.W, r, inv_wdx), F = force.W.gradient_factor(r);
+    ix[1] = simd::fmadd(w * vol_j, dx, ix[1]);
+    iy[1] = simd::fmadd(w * vol_j, dy, iy[1]);
+    jx[1] = simd::fnmadd(w * vol_i, dx, jx[1]);
+    jy[1] = simd::fnmadd(w * vol_i, dy, jy[1]);
+    ix[2] = simd::fmadd(F * vol_j, dx, ix[2]);
+    iy[2] = simd::fmadd(F * vol_j, dy, iy[2]);
+    jx[2] = simd::fnmadd(F * vol_i, dx, jx[2]);
+    jy[2] = simd::fnmadd(F * vol_i, dy, jy[2]);
   }
 };
 

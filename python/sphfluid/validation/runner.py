@@ -53,8 +53,8 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("droplet", "wcsph", 10): 2,  # 1.385
     ("droplet", "wcsph", 15): 0.25,  # 0.1738
     ("droplet", "wcsph", 20): 0.016,  # 0.01117
-    ("cavity", "wcsph", 20): 0.11,  # 0.07998
-    ("cavity", "wcsph", 30): 0.052,  # 0.03699
+    ("cavity", "wcsph", 20): 0.11,  # 0.07908
+    ("cavity", "wcsph", 30): 0.053,  # 0.03759
     ("oscillation", "wcsph", 10): 0.34,  # 0.2374
     ("oscillation", "wcsph", 15): 0.19,  # 0.1323
     ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
