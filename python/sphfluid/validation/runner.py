@@ -166,6 +166,13 @@ def plot_case(name: str, results: list[Result], path: Path) -> bool:
     left.set_ylabel(case.error_name)
     left.set_title(f"{case.title}: error against run time", fontsize=10)
     left.grid(True, which="both", alpha=0.3)
+    # a log axis spanning less than a decade labels every minor tick, and the
+    # labels run into each other: ticks at 1, 2 and 5 of each decade instead
+    from matplotlib.ticker import FuncFormatter, LogLocator
+    for axis in (left.xaxis, left.yaxis):
+        axis.set_minor_locator(LogLocator(base=10, subs=(2.0, 5.0)))
+        axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     if left.lines:
         left.legend()
     _profile(name, results, right)
