@@ -43,6 +43,8 @@ def test_scene_runs_a_few_steps(path):
 @pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
 def test_scene_is_stable_and_walls_hold_for_its_duration(path, adaptive):
     scene = sphfluid.load_scene(path)
+    if not adaptive and scene.time_step is None:
+        pytest.skip("the scene's own step is the adaptive one (its auto-dt run)")
     if adaptive:
         d = scene.to_dict()
         d["solver"]["time_step"] = "auto"
