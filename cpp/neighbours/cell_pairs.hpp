@@ -191,7 +191,7 @@ class CellPairs {
   struct OneOutput {
     static constexpr std::size_t kOutputs = 1;
     using Data = typename Pair::Data;
-    const Pair& pair;
+    Pair pair;  // by value, like the interactions it adapts
     template <class S>
     SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
       pair.load(j, s, d);

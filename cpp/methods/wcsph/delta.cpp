@@ -333,8 +333,11 @@ template <unsigned F>
 void DeltaWcsphMethod::forces() {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
-  shift_sum_.resize(n);
-  colour_.resize(n);
+  const bool shifting = P_.shifting > 0;  // the shifting sums only where they are used
+  if (shifting) {
+    shift_sum_.resize(n);
+    colour_.resize(n);
+  }
   if (forces_by_cells<F>()) {
     ctx_.timer.mark(kForces);
     return;
@@ -351,6 +354,7 @@ void DeltaWcsphMethod::forces() {
     force.load(j, Span1{}, d);
     Real jx = 0, jy = 0;
     force.add(i, d, true, r.x(), r.y(), r2, sum.f.x(), sum.f.y(), jx, jy);
+    if (!shifting) return;
     const Real rl = std::sqrt(r2), vj = m * ir[j];
     sum.s += (delta::shift_weight(W, rl, inv_wdx) * vj) * r;
     sum.c += (W.gradient_factor(rl) * vj) * r;
@@ -360,11 +364,13 @@ void DeltaWcsphMethod::forces() {
     if constexpr ((F & kWalls) != 0) {
       const Row<Vec2> ghosts = ctx_.ghosts.row(i);
       add_wall_force<F>(i, ghosts, f);
-      add_wall_shift(ghosts, s);
+      if (shifting) add_wall_shift(ghosts, s);
     }
     ps.a[i] = f;
-    shift_sum_[i] = s;
-    colour_[i] = sum.c;
+    if (shifting) {
+      shift_sum_[i] = s;
+      colour_[i] = sum.c;
+    }
   };
   struct Visitor {
     decltype(add_pair)& on_pair;

@@ -587,8 +587,8 @@ class Cavity(Case):
 
     def scene(self, n, method):
         L = self.length
+        # no per-case alpha: with the continuity density W28 leaves none here
         fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
-        fluid["artificial_viscosity"] = 0.0  # laminar: the physical viscosity alone
         d = _scene("validation: lid-driven cavity", method=method, dx=self.spacing(n),
                    box=((-0.1, -0.1), (1.1, 1.1)), fluid=fluid, regions=[_rect(0.0, 0.0, L, L)],
                    walls=[{"polyline": [[0.0, L], [0.0, 0.0], [L, 0.0], [L, L]]},
