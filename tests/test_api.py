@@ -173,10 +173,10 @@ def test_add_particles_gives_fresh_ids(scene_dict):
 def test_compression_counts_only_densities_above_rho0():
     """stats()["max_compression"] is max(rho/rho0 - 1, 0); the density error
     |rho/rho0 - 1| also counts the free surface's shortfall. In the bundled
-    hydrostatic column with wcsph (stiff), the surface falls far more short
-    than the bottom is compressed."""
+    hydrostatic column with wcsph's summed density (stiff), the surface falls
+    far more short than the bottom is compressed."""
     scene = json.loads((ROOT / "scenes" / "hydrostatic.json").read_text())
-    scene.setdefault("solver", {})["method"] = "wcsph"
+    scene.setdefault("solver", {}).update(method="wcsph", density="summation")
     sim = sphfluid.Simulation(scene)
     sim.advance_to(0.05)
     st = sim.stats()

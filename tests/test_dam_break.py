@@ -18,27 +18,28 @@ _WALLS = [{"polyline": [[0.0, 3.0], [0.0, 0.0], [4.0, 0.0], [4.0, 3.0]]}]
 _SEED_FLUID = {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0}
 
 
-def _frozen(name, fluid, dx, h, solver, **extra):
+def _frozen(name, fluid, dx, solver, **extra):
     return {"format": "sphfluid-scene/1", "name": name, "gravity": [0.0, -9.81],
             "domain": _DOMAIN, "fluid": fluid,
-            "resolution": {"spacing": dx, "smoothing_length": h},
+            "resolution": {"spacing": dx},
             "fluid_regions": _COLUMN, "walls": _WALLS, "solver": solver, **extra}
 
 
 # What bench.dam_break_scene and the validation's DamBreak.scene returned before the
-# geometry was defined in one place (printed from that code, floats as repr).
+# geometry was defined in one place (printed from that code, floats as repr), since
+# each method takes its default support (wcsph's fixed step 0.3 (h/2) / c0 with it).
 FROZEN = {
     ("bench", 1000, "seed"): _frozen(
-        "Dam break, 1,000 particles", _SEED_FLUID, 0.044721359549995794, 0.08944271909999159,
+        "Dam break, 1,000 particles", _SEED_FLUID, 0.044721359549995794,
         {"method": "seed", "time_step": 0.00044721359549995795}),
     ("bench", 10000, "wcsph"): _frozen(
-        "Dam break, 10,000 particles", _SEED_FLUID, 0.01414213562373095, 0.0282842712474619,
-        {"method": "wcsph", "time_step": 6.60962931263943e-05}),
+        "Dam break, 10,000 particles", _SEED_FLUID, 0.01414213562373095,
+        {"method": "wcsph", "time_step": 9.914443968959147e-05}),
     ("validation", 10, "seed"): _frozen(
-        "validation: dam break", _SEED_FLUID, 0.1, 0.2,
+        "validation: dam break", _SEED_FLUID, 0.1,
         {"method": "seed", "time_step": "auto", "cfl": 0.4}, duration=0.72),
     ("validation", 20, "wcsph"): _frozen(
-        "validation: dam break", {"rest_density": 1000.0}, 0.05, 0.1,
+        "validation: dam break", {"rest_density": 1000.0}, 0.05,
         {"method": "wcsph", "time_step": "auto", "cfl": 0.4}, duration=0.72),
 }
 
@@ -62,12 +63,14 @@ def test_seed_float_variant_only_adds_the_precision():
 
 def test_the_bundled_scene_file_agrees_with_the_definition():
     d = json.loads((ROOT / "scenes" / "dam_break.json").read_text())
-    built = GEOMETRY.scene(d["resolution"]["spacing"], name=d["name"], fluid={},
+    built = GEOMETRY.scene(d["resolution"]["spacing"], name=d["name"], fluid=d["fluid"],
                            solver=d["solver"], duration=d["duration"])
-    for key in ("gravity", "domain", "fluid_regions", "walls", "resolution"):
+    for key in ("gravity", "domain", "fluid_regions", "walls"):
         assert d[key] == built[key], key
     assert d["fluid"]["rest_density"] == GEOMETRY.rho0
     scene = load_scene(d)
+    assert scene.spacing == built["resolution"]["spacing"]
+    assert scene.smoothing_length == load_scene(built).smoothing_length
     assert scene.domain_min == GEOMETRY.domain_min and scene.domain_max == GEOMETRY.domain_max
 
 

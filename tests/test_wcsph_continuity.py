@@ -188,9 +188,21 @@ def test_scene_options():
     bad = dict(d, solver={"method": "seed", "time_step": 1e-4, "density": "continuity"})
     with pytest.raises(SceneError, match=r"solver\.density"):
         sphfluid.load_scene(bad)
-    bad = dict(d, solver={"method": "wcsph", "time_step": "auto", "shifting": 2})
+    bad = dict(d, solver={"method": "wcsph", "time_step": "auto", "density": "summation",
+                          "shifting": 2})
     with pytest.raises(SceneError, match=r"solver\.shifting"):
         sphfluid.load_scene(bad)
+    for wrong in ("on", -1, None, [8]):
+        bad = dict(d, solver=dict(d["solver"], shifting=wrong))
+        with pytest.raises(SceneError, match=r"solver\.shifting"):
+            sphfluid.load_scene(bad)
+    # the defaults: the continuity density with "auto" shifting, written back as such
+    plain = sphfluid.load_scene(dict(d, solver={"method": "wcsph", "time_step": "auto"}))
+    assert (plain.density, plain.shifting) == ("continuity", "auto")
+    assert plain.smoothing_length == pytest.approx(3 * 0.05)
+    assert "density" not in plain.to_dict()["solver"]
+    assert "shifting" not in plain.to_dict()["solver"]
+    assert sphfluid.load_scene(plain.to_dict()) == plain
     bad = dict(d, solver=dict(d["solver"], density="sum"))
     with pytest.raises(SceneError, match=r"solver\.density"):
         sphfluid.load_scene(bad)
@@ -292,8 +304,6 @@ def tank_scene(density, n=15):
     d = Hydrostatic().scene(n, "wcsph")
     d["resolution"]["smoothing_length"] = 3.0 / n
     d["solver"]["density"] = density
-    if density == "continuity":  # the shifting makes a resting tank's speed creep
-        d["solver"]["shifting"] = 0.0  # (docs/method-wcsph.md, "Measured")
     return sphfluid.load_scene(d)
 
 
@@ -304,7 +314,7 @@ def rms_pressure_error(sim):
 
 def test_a_tank_filled_on_the_lattice_starts_hydrostatic_and_stays_at_rest():
     """The bundled hydrostatic tank's fluid on the plain lattice at rest (W23's
-    start, W20's walls; no shifting): the pressure is rho0 g (H - y) from the start and
+    start, W20's walls; a free surface, so "auto" does not shift): the pressure is rho0 g (H - y) from the start and
     stays within 1.5 % of rho0 g H, the largest speed below 2e-3 sqrt(gH) after
     1 s. The summation density fails the same check (its lattice carries the
     weight like a solid)."""
@@ -408,3 +418,29 @@ def test_shifting_in_a_closed_box_keeps_particles_in_and_the_density_level():
         runs[k] = (sim.densities.mean(), x[np.argsort(sim.ids)])
     assert abs(runs[8.0][0] / runs[0.0][0] - 1) < 0.01
     assert np.abs(runs[8.0][1] - runs[0.0][1]).max() > 1.0 / 20
+
+
+def _final_state(d, shifting, t):
+    d = dict(d, solver=dict(d["solver"], shifting=shifting))
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    return sim, lambda: (sim.advance_to(t), sim.positions[np.argsort(sim.ids)].copy())[1]
+
+
+def test_auto_shifting_shifts_confined_flows_and_not_free_surfaces():
+    """"shifting": "auto" (the default) is k = 8 in the steps where no kernel
+    sum is below 0.85: the Taylor-Green vortex (periodic, no free surface)
+    runs as with k = 8 and differs from k = 0; the dam break (a free surface)
+    runs as with k = 0."""
+    from sphfluid.validation.cases import CASES
+    tg = CASES["taylor_green"]
+    states = {}
+    for k in ("auto", 8.0, 0.0):
+        sim, finish = _final_state(tg.scene(20, "wcsph"), k, 0.1)
+        tg.start(sim)
+        states[k] = finish()
+    np.testing.assert_array_equal(states["auto"], states[8.0])
+    assert np.abs(states["auto"] - states[0.0]).max() > 1e-6
+    dam = CASES["dam_break"]
+    states = {k: _final_state(dam.scene(10, "wcsph"), k, 0.3)[1]() for k in ("auto", 0.0, 8.0)}
+    np.testing.assert_array_equal(states["auto"], states[0.0])
+    assert np.abs(states["auto"] - states[8.0]).max() > 1e-6

@@ -93,11 +93,13 @@ struct SimParams {
   Real spacing = 0;  // lattice spacing, m: wcsph's walls mirror that lattice (0: a continuum)
   // wcsph with the density from the continuity equation (docs/method-wcsph.md,
   // W17-W26) instead of the summation: its diffusion coefficient delta (0:
-  // none) and the coefficient of particle shifting (0: none). The pressure is
-  // then not clamped at 0.
+  // none) and the coefficient of particle shifting (0: none), which with
+  // shift_confined shifts only in steps where no particle is at a free
+  // surface (W21). The pressure is then not clamped at 0.
   bool continuity = false;
   Real delta = 0.1;
   Real shifting = 0;
+  bool shift_confined = false;
 
   // Speed of sound of the method's state equation, and the length in the
   // time-step conditions (the method's registration says: methods/registry.cpp).

@@ -85,7 +85,8 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
     """The bundled dam break (1 x 2 m column, 4 m tank) at about n_target particles.
 
     dt scales with the spacing (a fixed CFL number), so every N runs the same
-    physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0.
+    physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0
+    with its default support h.
     """
     dx = math.sqrt(2.0 / n_target)
     scene = GEOMETRY.scene(dx, name=f"Dam break, {n_target:,} particles",
@@ -95,7 +96,8 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
         from .scene import load_scene
         from .simulation import speed_of_sound
 
-        scene["solver"]["time_step"] = 0.3 * dx / speed_of_sound(load_scene(scene))
+        loaded = load_scene(scene)
+        scene["solver"]["time_step"] = 0.15 * loaded.smoothing_length / speed_of_sound(loaded)
     return scene
 
 

@@ -40,7 +40,7 @@ class DamBreakGeometry:
     def scene(self, spacing: float, *, name: str, fluid: dict, solver: dict,
               duration: float | None = None) -> dict:
         """A scene dict of this dam break at particle spacing dx = `spacing` [m],
-        h = 2 dx, with the given name, fluid (rest_density is this geometry's rho0,
+        the method's default support, with the given name, fluid (rest_density is this geometry's rho0,
         the rest is the caller's), solver block and, if given, duration [s]."""
         scene = {
             "format": "sphfluid-scene/1",
@@ -48,7 +48,7 @@ class DamBreakGeometry:
             "gravity": [0.0, -self.g],
             "domain": {"min": list(self.domain_min), "max": list(self.domain_max)},
             "fluid": {"rest_density": self.rho0, **fluid},
-            "resolution": {"spacing": spacing, "smoothing_length": 2 * spacing},
+            "resolution": {"spacing": spacing},
             "fluid_regions": [self.column()],
             "walls": self.walls(),
             "solver": solver,

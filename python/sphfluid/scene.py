@@ -51,9 +51,24 @@ _SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitutio
                 "surface_threshold", "pair_precision", "density", "density_diffusion", "shifting")
 ON_INSTABILITY = ("stop", "retry")
 PAIR_PRECISIONS = ("double", "float")
-DENSITIES = ("summation", "continuity")  # wcsph's density (docs/method-wcsph.md, W2 / W17)
+# wcsph's density (docs/method-wcsph.md, W17 / W2); the seed sums
+DENSITIES = ("continuity", "summation")
+
+
+def default_density(method: str, surface_tension: float | None) -> str:
+    """solver.density where a scene does not say: the continuity density for
+    wcsph, but the summation with surface tension, whose pressures (sigma / R)
+    are small enough for a carried density's drift to show (the validation
+    droplet at 20 across: 13 % from Laplace's pressure, 1.1 % summed); the
+    seed's density is always summed."""
+    if method != "wcsph" or surface_tension:
+        return "summation"
+    return "continuity"
 DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
-DEFAULT_SHIFTING = 0.0  # wcsph with continuity: the shifting coefficient k (W21); none
+# wcsph with continuity: the shifting coefficient k (W21), or "auto": AUTO_SHIFTING
+# in the steps where no particle is at a free surface, none in the others
+DEFAULT_SHIFTING = "auto"
+AUTO_SHIFTING = 8.0
 CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
 _SHAPE_KEYS = {
     "rectangle": ("shape", "min", "max", "velocity"),
@@ -155,9 +170,9 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "summation"  # wcsph: "summation" (W2) or "continuity" (W17-W28)
+    density: str = "continuity"  # wcsph: "continuity" (W17-W28) or "summation" (W2)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
-    shifting: float = DEFAULT_SHIFTING  # wcsph with continuity: shifting coefficient (0: none)
+    shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
 
@@ -233,11 +248,13 @@ class Scene:
             out["solver"]["on_instability"] = self.on_instability
         if self.pair_precision != "double":
             out["solver"]["pair_precision"] = self.pair_precision
-        if self.density != "summation":
+        if self.method == "wcsph" and self.density != default_density(self.method,
+                                                                      self.surface_tension):
             out["solver"]["density"] = self.density
         if self.density_diffusion != DEFAULT_DENSITY_DIFFUSION:
             out["solver"]["density_diffusion"] = self.density_diffusion
-        if self.density == "continuity" and self.shifting != DEFAULT_SHIFTING:
+        if self.method == "wcsph" and self.density == "continuity" and \
+                self.shifting != DEFAULT_SHIFTING:
             out["solver"]["shifting"] = self.shifting
         if self.duration is not None:
             out["duration"] = self.duration
@@ -321,7 +338,7 @@ class _Solver(NamedTuple):
     threshold: float | None  # 1/m
     density: Any
     density_diffusion: float | None
-    shifting: float | None
+    shifting: float | str | None
 
 
 class _Fluid(NamedTuple):
@@ -376,6 +393,8 @@ class _Validator:
         domain = self.domain(d)
         solver = self.solver(d)
         fluid = self.fluid(d, solver.method)
+        if solver.density is None:
+            solver = solver._replace(density=default_density(solver.method, fluid.sigma))
         res = self.resolution(d, continuity=solver.method == "wcsph"
                               and solver.density == "continuity")
         regions = self.regions(d)
@@ -457,10 +476,19 @@ class _Validator:
             self.fail("solver.pair_precision", '"float" applies to the seed method only')
         threshold = self.number_at(solver, "surface_threshold", "solver.", low=0, strict=False)
         density = self.choice(solver, "density", "solver.", DENSITIES)
+        if method != "wcsph":
+            density = "summation"  # the seed's (SPEC.md)
+        elif "density" not in solver and not ({"density_diffusion", "shifting"} & set(solver)):
+            density = None  # default_density's, once the fluid is known
         diffusion = self.number_at(solver, "density_diffusion", "solver.",
                                    DEFAULT_DENSITY_DIFFUSION, low=0, strict=False)
-        shifting = self.number_at(solver, "shifting", "solver.", DEFAULT_SHIFTING, low=0,
-                                  strict=False)
+        shifting = solver.get("shifting", DEFAULT_SHIFTING)
+        if not (isinstance(shifting, str) and shifting == "auto"):
+            if isinstance(shifting, str):
+                self.fail("solver.shifting", f'expected a number or "auto", got {json.dumps(shifting)}')
+                shifting = None
+            else:
+                shifting = self.number(shifting, "solver.shifting", low=0, strict=False)
         for key in ("density", "density_diffusion", "shifting"):
             if key in solver and method != "wcsph":
                 self.fail(f"solver.{key}", "applies to the wcsph method only")

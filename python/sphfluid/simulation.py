@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 
 from . import _core
-from .scene import Scene, load_scene
+from .scene import AUTO_SHIFTING, Scene, load_scene
 
 InstabilityError = _core.InstabilityError
 RETRIES = 5  # on_instability "retry": dt/2, dt/4, ... dt/32 before giving up
@@ -80,9 +80,12 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.threads = 0 if threads is None else int(threads)
     p.cfl = scene.cfl
     p.float_pairs = scene.pair_precision == "float"
-    p.continuity = scene.density == "continuity"
+    p.continuity = scene.method == "wcsph" and scene.density == "continuity"
     p.delta = scene.density_diffusion
-    p.shifting = scene.shifting
+    if scene.shifting == "auto":  # W21: only in the steps without a free surface
+        p.shifting, p.shift_confined = AUTO_SHIFTING, True
+    else:
+        p.shifting = scene.shifting
     # The guard bounds the surface energy by sigma x the regions' perimeters.
     p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0

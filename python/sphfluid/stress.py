@@ -67,7 +67,7 @@ def tank_scene(kind: str, spacing: float, duration: float) -> dict:
         "format": "sphfluid-scene/1", "name": f"stress {kind}",
         "domain": {"min": [-0.1, -0.1], "max": [4.1, 5.6]},
         "fluid": {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0},
-        "resolution": {"spacing": spacing, "smoothing_length": 2 * spacing},
+        "resolution": {"spacing": spacing},
         "fluid_regions": regions, "walls": walls,
         "solver": {"method": "seed", "time_step": 1e-4}, "duration": duration,
     }

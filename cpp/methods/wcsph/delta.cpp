@@ -250,11 +250,14 @@ void DeltaWcsphMethod::density(Real dt) {
   Real* lap = lap_.data();
   const Real* sums = sums_.data();
   const Real rho0 = P_.rho0;
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  Index surface = 0;
+#pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(+ : surface)
   for (Index i = 0; i < n; ++i) {
     rho_w[i] = delta::surface_floor(rho_w[i] + dt * rl[i].x(), sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
+    surface += sums[i] < delta::kOpenSurfaceSum;
   }
+  at_surface_ = surface;
   ctx_.timer.mark(kDensity);
 }
 
@@ -298,7 +301,7 @@ bool DeltaWcsphMethod::forces_by_cells() {
     if (!by_cells_) return false;
     constexpr bool kVisc = (F & kViscosity) != 0;
     ParticleSet& ps = ctx_.ps;
-    const bool shifting = P_.shifting > 0;
+    const bool shifting = shifts_next();
     // eight lanes a group (four: 10 % slower at 10k, three spacings' support)
     const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
     const CellPairs& cells = ctx_.search.cells();
@@ -333,10 +336,12 @@ template <unsigned F>
 void DeltaWcsphMethod::forces() {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
-  const bool shifting = P_.shifting > 0;  // the shifting sums only where they are used
+  const bool shifting = shifts_next();  // the shifting sums only where they are used
   if (shifting) {
     shift_sum_.resize(n);
     colour_.resize(n);
+  } else {
+    shift_sum_.clear();  // the next drift does not shift (shift_for)
   }
   if (forces_by_cells<F>()) {
     ctx_.timer.mark(kForces);
@@ -428,13 +433,14 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
 // sum below kSurfaceSum) only its part along the surface, whose normal is
 // minus the colour gradient; none within h of a wall (the walls' rows rest,
 // and their share of the rate follows the flow's velocity alone). Returns
-// false where nothing shifts.
+// false where nothing shifts (no sums: shifts_next()).
 template <unsigned F>
 bool DeltaWcsphMethod::shift_for(Real dt) {
   const ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   if (shift_sum_.size() != static_cast<std::size_t>(n)) return false;
   Real v2 = 0;
+#pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(max : v2)
   for (Index i = 0; i < n; ++i) v2 = std::max(v2, ps.v[i].squaredNorm());
   const Real scale = -P_.shifting * std::sqrt(v2) * dt * Real(0.5) * P_.h;
   if (!(scale < 0)) return false;

@@ -66,7 +66,7 @@ def _scene(name: str, *, method: str, dx: float, box, fluid: dict, regions: list
         "domain": {"min": list(box[0]), "max": list(box[1]),
                    **({"periodic": list(periodic)} if any(periodic) else {})},
         "fluid": fluid,
-        "resolution": {"spacing": dx, "smoothing_length": 2 * dx},
+        "resolution": {"spacing": dx},  # the method's default support
         "fluid_regions": regions,
         "walls": walls,
         "solver": {"method": method, "time_step": "auto", "cfl": cfl},
@@ -159,9 +159,8 @@ class Case:
 
 
 class Hydrostatic(Case):
-    """Still water, H = 1 m deep in a 1 m wide tank, left to settle for
-    t sqrt(g/H) = 15.7 (5 s); wcsph starts in its equilibrium density profile,
-    the seed on the lattice. Error: the RMS over the particles of p - rho0 g (H - y),
+    """Still water, H = 1 m deep in a 1 m wide tank, filled on the lattice and
+    left to settle for t sqrt(g/H) = 15.7 (5 s). Error: the RMS over the particles of p - rho0 g (H - y),
     each averaged over the last second, divided by rho0 g H."""
 
     name = "hydrostatic"
@@ -182,29 +181,6 @@ class Hydrostatic(Case):
                       regions=[_rect(0.0, 0.0, 1.0, H)],
                       walls=[{"polyline": [[0.0, 1.5], [0.0, 0.0], [1.0, 0.0], [1.0, 1.5]]}],
                       duration=self.duration)
-
-    def start(self, sim):
-        """wcsph starts in its own equilibrium: the rows are squeezed so that the
-        summation density follows the Tait profile rho0 (1 + rho0 g d / B)^(1/7)
-        at depth d (a start at rho0 rings acoustically for many seconds)."""
-        if sim.scene.method != "wcsph":
-            return
-        from ..simulation import speed_of_sound
-
-        x = sim.positions.copy()
-        dx, rho0 = sim.scene.spacing, sim.scene.rest_density
-        B = rho0 * speed_of_sound(sim.scene) ** 2 / 7
-        rows = np.round(x[:, 1] / dx - 0.5).astype(int)
-        n_rows = rows.max() + 1
-        depth = np.empty(n_rows)  # of each row below the surface, top row first
-        d = dx / 2
-        for k in range(n_rows):
-            depth[k] = d
-            squeeze = (1 + rho0 * G * d / B) ** (-1 / 7)
-            d += dx * squeeze
-        surface = depth[-1] + dx / 2 * (1 + rho0 * G * depth[-1] / B) ** (-1 / 7)
-        x[:, 1] = surface - depth[n_rows - 1 - rows]
-        sim.set_state(x, np.zeros_like(x), sim.ids.copy())
 
     def sample_times(self):
         return np.r_[np.linspace(0.25, self.duration - 1, 16),
@@ -330,8 +306,6 @@ class Poiseuille(Case):
         L, dx = self.length, self.spacing(n)
         width = 10 * dx  # the periodic x extent
         fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
-        if method == "wcsph":
-            fluid["artificial_viscosity"] = 0.0  # laminar: the physical viscosity alone
         reach = 4 * dx  # plates run past the seam so no particle sees their ends
         return _scene("validation: Poiseuille flow", method=method, dx=dx,
                       box=((0.0, -0.5 * L), (width, 1.5 * L)), fluid=fluid,
@@ -386,11 +360,6 @@ class TaylorGreen(Case):
     def scene(self, n, method):
         L = self.length
         fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
-        if method == "wcsph":
-            fluid["artificial_viscosity"] = 0.0
-            # No free surface: the vortices' low pressures are real. rho0 U^2 is
-            # twice the largest drop below the mean.
-            fluid["background_pressure"] = self.rho0 * self.speed**2
         return _scene("validation: Taylor-Green vortex", method=method, dx=self.spacing(n),
                       box=((0.0, 0.0), (L, L)), fluid=fluid, regions=[_rect(0.0, 0.0, L, L)],
                       walls=[], gravity=(0.0, 0.0), periodic=(True, True),
@@ -566,8 +535,8 @@ class Cavity(Case):
     """A 1 x 1 m box whose lid slides at U = 1 m/s, Re = 100 (nu = 0.01 m^2/s),
     c0 = 10 U, from rest on the lattice, to t = 30 s (how much the centreline
     velocities still move over the last 10 s is reported). A wall whose
-    surface slides needs wcsph with the continuity density (docs/method-wcsph.md,
-    W25), which the scene asks for. Error: the largest |u - u_Ghia| on the
+    surface slides needs wcsph's continuity density (its default;
+    docs/method-wcsph.md, W25). Error: the largest |u - u_Ghia| on the
     vertical centreline and |v - v_Ghia| on the horizontal one (Ghia, Ghia &
     Shin 1982; their interior points), the SPH velocities interpolated there by
     a linear least-squares fit over the particles within h (Wendland weights;
@@ -587,16 +556,13 @@ class Cavity(Case):
 
     def scene(self, n, method):
         L = self.length
-        # no per-case alpha: with the continuity density W28 leaves none here
         fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
-        d = _scene("validation: lid-driven cavity", method=method, dx=self.spacing(n),
-                   box=((-0.1, -0.1), (1.1, 1.1)), fluid=fluid, regions=[_rect(0.0, 0.0, L, L)],
-                   walls=[{"polyline": [[0.0, L], [0.0, 0.0], [L, 0.0], [L, L]]},
-                          {"polyline": [[0.0, L], [L, L]], "velocity": [self.speed, 0.0]}],
-                   gravity=(0.0, 0.0), duration=self.duration)
-        d["solver"]["density"] = "continuity"
-        del d["resolution"]["smoothing_length"]  # the continuity density's default
-        return d
+        return _scene("validation: lid-driven cavity", method=method, dx=self.spacing(n),
+                      box=((-0.1, -0.1), (1.1, 1.1)), fluid=fluid,
+                      regions=[_rect(0.0, 0.0, L, L)],
+                      walls=[{"polyline": [[0.0, L], [0.0, 0.0], [L, 0.0], [L, L]]},
+                             {"polyline": [[0.0, L], [L, L]], "velocity": [self.speed, 0.0]}],
+                      gravity=(0.0, 0.0), duration=self.duration)
 
     def sample_times(self):
         return np.linspace(self.duration - 10.0, self.duration, 21)

@@ -26,35 +26,35 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("hydrostatic", "seed", 10): 1.2,  # 0.8371
     ("hydrostatic", "seed", 15): 1.3,  # 0.9188
     ("hydrostatic", "seed", 20): 1.3,  # 0.8678
-    ("hydrostatic", "wcsph", 10): 0.094,  # 0.06645
-    ("hydrostatic", "wcsph", 15): 0.091,  # 0.06473
-    ("hydrostatic", "wcsph", 20): 0.083,  # 0.05923
+    ("hydrostatic", "wcsph", 10): 0.011,  # 0.00757
+    ("hydrostatic", "wcsph", 15): 0.009,  # 0.00636
+    ("hydrostatic", "wcsph", 20): 0.0085,  # 0.00604
     ("dam_break", "seed", 10): 0.28,  # 0.1953
     ("dam_break", "seed", 15): 0.24,  # 0.168
     ("dam_break", "seed", 20): 0.27,  # 0.1879
-    ("dam_break", "wcsph", 10): 0.16,  # 0.1104
-    ("dam_break", "wcsph", 15): 0.27,  # 0.1884
-    ("dam_break", "wcsph", 20): 0.3,  # 0.2133
+    ("dam_break", "wcsph", 10): 0.11,  # 0.0759
+    ("dam_break", "wcsph", 15): 0.21,  # 0.148
+    ("dam_break", "wcsph", 20): 0.26,  # 0.18
     ("poiseuille", "seed", 10): 0.48,  # 0.3389
     ("poiseuille", "seed", 15): 0.39,  # 0.2753
     ("poiseuille", "seed", 20): 0.35,  # 0.2466
-    ("poiseuille", "wcsph", 10): 0.061,  # 0.04289
-    ("poiseuille", "wcsph", 15): 0.045,  # 0.03168
-    ("poiseuille", "wcsph", 20): 0.038,  # 0.02708
+    ("poiseuille", "wcsph", 10): 0.0067,  # 0.00475
+    ("poiseuille", "wcsph", 15): 0.0033,  # 0.00231
+    ("poiseuille", "wcsph", 20): 0.002,  # 0.00142
     ("taylor_green", "seed", 20): 1.8,  # 1.245
     ("taylor_green", "seed", 30): 1.5,  # 1.057
     ("taylor_green", "seed", 40): 0.69,  # 0.4902
-    ("taylor_green", "wcsph", 20): 1.3,  # 0.9125
-    ("taylor_green", "wcsph", 30): 1.4,  # 0.9304
-    ("taylor_green", "wcsph", 40): 1.5,  # 1.013
+    ("taylor_green", "wcsph", 20): 0.15,  # 0.106
+    ("taylor_green", "wcsph", 30): 0.058,  # 0.0412
+    ("taylor_green", "wcsph", 40): 0.036,  # 0.0254
     ("droplet", "seed", 10): 34,  # 23.94
     ("droplet", "seed", 15): 44,  # 30.77
     ("droplet", "seed", 20): 61,  # 43.11
     ("droplet", "wcsph", 10): 2,  # 1.385
     ("droplet", "wcsph", 15): 0.25,  # 0.1738
     ("droplet", "wcsph", 20): 0.016,  # 0.01117
-    ("cavity", "wcsph", 20): 0.11,  # 0.07908
-    ("cavity", "wcsph", 30): 0.053,  # 0.03759
+    ("cavity", "wcsph", 20): 0.11,  # 0.0723
+    ("cavity", "wcsph", 30): 0.046,  # 0.0325
     ("oscillation", "wcsph", 10): 0.34,  # 0.2374
     ("oscillation", "wcsph", 15): 0.19,  # 0.1323
     ("oscillation", "wcsph", 20): 0.0057,  # 0.004038
