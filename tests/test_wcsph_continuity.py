@@ -427,10 +427,10 @@ def _final_state(d, shifting, t):
 
 
 def test_auto_shifting_shifts_confined_flows_and_not_free_surfaces():
-    """"shifting": "auto" (the default) is k = 8 in the steps where no kernel
-    sum is below 0.85: the Taylor-Green vortex (periodic, no free surface)
-    runs as with k = 8 and differs from k = 0; the dam break (a free surface)
-    runs as with k = 0."""
+    """"shifting": "auto" (the default) is k = 8 in a flow where no kernel sum
+    is below 0.85 at the start: the Taylor-Green vortex (periodic, no free
+    surface) and the lid-driven cavity (a filled box) run as with k = 8 and
+    differ from k = 0; the dam break (a free surface) runs as with k = 0."""
     from sphfluid.validation.cases import CASES
     tg = CASES["taylor_green"]
     states = {}
@@ -438,6 +438,10 @@ def test_auto_shifting_shifts_confined_flows_and_not_free_surfaces():
         sim, finish = _final_state(tg.scene(20, "wcsph"), k, 0.1)
         tg.start(sim)
         states[k] = finish()
+    np.testing.assert_array_equal(states["auto"], states[8.0])
+    assert np.abs(states["auto"] - states[0.0]).max() > 1e-6
+    cavity = CASES["cavity"]
+    states = {k: _final_state(cavity.scene(20, "wcsph"), k, 0.5)[1]() for k in ("auto", 8.0, 0.0)}
     np.testing.assert_array_equal(states["auto"], states[8.0])
     assert np.abs(states["auto"] - states[0.0]).max() > 1e-6
     dam = CASES["dam_break"]

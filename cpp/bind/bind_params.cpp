@@ -37,8 +37,8 @@ void bind_params(py::module_& m) {
       .def_readwrite("shifting", &SimParams::shifting,
                      "wcsph with continuity: particle shifting coefficient (0: none)")
       .def_readwrite("shift_confined", &SimParams::shift_confined,
-                     "wcsph with continuity: shift only in steps where no particle is at "
-                     "a free surface")
+                     "wcsph with continuity: shift only a flow with no free surface at "
+                     "its start")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
       .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
       .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")

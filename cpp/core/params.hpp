@@ -94,8 +94,8 @@ struct SimParams {
   // wcsph with the density from the continuity equation (docs/method-wcsph.md,
   // W17-W26) instead of the summation: its diffusion coefficient delta (0:
   // none) and the coefficient of particle shifting (0: none), which with
-  // shift_confined shifts only in steps where no particle is at a free
-  // surface (W21). The pressure is then not clamped at 0.
+  // shift_confined shifts only a flow with no free surface at its start
+  // (W21). The pressure is then not clamped at 0.
   bool continuity = false;
   Real delta = 0.1;
   Real shifting = 0;

@@ -56,11 +56,10 @@ SPHFLUID_INLINE void rate(simd::Mask<L> in, L F, const RateConstants<L>& c, L rh
 // density, into the spray (the summation density's clamp, W3, where the
 // surface is).
 constexpr Real kSurfaceSum = 0.95;
-// "shifting": "auto" shifts only in the steps where no particle's kernel sum is
-// below kOpenSurfaceSum: the outer row of a flat free surface on the lattice
-// has 0.75 with the support of 3 dx (a corner less), where the disordered
-// interior of the Taylor-Green vortex took sums below kSurfaceSum (its error at
-// 25 across 8.7 % against 5.1 % with k = 8 in every step) but not below 0.9.
+// "shifting": "auto" shifts only a confined flow, one where no particle's
+// kernel sum is below kOpenSurfaceSum at the start: on the lattice, the outer
+// row of a flat free surface has 0.75 with the support of 3 dx (a corner
+// less), a fluid that fills its box or a periodic one 1.
 constexpr Real kOpenSurfaceSum = 0.85;
 inline Real surface_floor(Real rho, Real sum, Real rho0) {
   return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;

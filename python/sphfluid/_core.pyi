@@ -62,7 +62,7 @@ class SimParams(metaclass=_Pybind11Type):
     continuity: bool  # density from the continuity equation (else the summation)
     delta: float  # with continuity: density diffusion coefficient (0: none)
     shifting: float  # with continuity: particle shifting coefficient (0: none)
-    shift_confined: bool  # with continuity: shift only in steps without a free surface
+    shift_confined: bool  # with continuity: shift only a flow without a free surface at the start
     # the fluid and its particles
     h: float  # smoothing length (kernel support), m
     mass: float  # particle mass, kg per metre of depth

@@ -66,7 +66,7 @@ def default_density(method: str, surface_tension: float | None) -> str:
     return "continuity"
 DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
 # wcsph with continuity: the shifting coefficient k (W21), or "auto": AUTO_SHIFTING
-# in the steps where no particle is at a free surface, none in the others
+# in a flow with no free surface at its start (a confined one), none in others
 DEFAULT_SHIFTING = "auto"
 AUTO_SHIFTING = 8.0
 CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing

@@ -82,7 +82,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.float_pairs = scene.pair_precision == "float"
     p.continuity = scene.method == "wcsph" and scene.density == "continuity"
     p.delta = scene.density_diffusion
-    if scene.shifting == "auto":  # W21: only in the steps without a free surface
+    if scene.shifting == "auto":  # W21: only a flow with no free surface at its start
         p.shifting, p.shift_confined = AUTO_SHIFTING, True
     else:
         p.shifting = scene.shifting

@@ -257,7 +257,10 @@ void DeltaWcsphMethod::density(Real dt) {
     lap[i] = delta::laplacian_norm(rl[i].y());
     surface += sums[i] < delta::kOpenSurfaceSum;
   }
-  at_surface_ = surface;
+  if (!shape_known_ && n > 0) {  // shift_confined: the fluid's shape at the start
+    confined_ = surface == 0;
+    shape_known_ = true;
+  }
   ctx_.timer.mark(kDensity);
 }
 

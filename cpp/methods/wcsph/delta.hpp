@@ -82,9 +82,10 @@ class DeltaWcsphMethod final : public SphMethod {
   // The shift of the next drift (W21-W22), from this evaluation's sums.
   template <unsigned F> bool shift_for(Real dt);
   // Whether the next drift shifts, so this evaluation takes the shifting sums:
-  // with shifting, and with shift_confined only when no particle is at a free
-  // surface (a kernel sum below delta::kOpenSurfaceSum).
-  bool shifts_next() const { return P_.shifting > 0 && !(P_.shift_confined && at_surface_ > 0); }
+  // with shifting, and with shift_confined only in a confined flow, one where
+  // no particle of the first evaluation with particles was at a free surface
+  // (a kernel sum below delta::kOpenSurfaceSum).
+  bool shifts_next() const { return P_.shifting > 0 && (!P_.shift_confined || confined_); }
 
   using StepFn = void(DeltaWcsphMethod&, Real, Real);
   using EvalFn = void(DeltaWcsphMethod&);
@@ -107,7 +108,8 @@ class DeltaWcsphMethod final : public SphMethod {
   std::vector<Vec2> shift_sum_;   // W21's sum of each particle
   std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
   std::unique_ptr<Field<Vec2>> shift_;  // the next drift's shift, m (with shifting only)
-  Index at_surface_ = 0;  // particles below kOpenSurfaceSum in this evaluation
+  bool shape_known_ = false;  // shift_confined: whether the fluid's shape is known,
+  bool confined_ = false;     // and whether it has no free surface
   Real shift_per_dt_ = 0;         // 1 / dt of a step whose drift shifted, else 0
 };
 
