@@ -1,9 +1,11 @@
 """wcsph's dam break at several speeds of sound: the densest particle over every
 step to t = 1 s (compression only, rho > rho0), where and when, and how many
 steps have some particle over 1 %. STABILITY.md, "Density error and the speed of
-sound", quotes its output.
+sound", quotes its output (with the summed density).
 
-    python benchmarks/experiments/density_vs_sound_speed.py 3000 10,20,30,40
+    python benchmarks/experiments/density_vs_sound_speed.py 3000 10,20,30,40 [DENSITY]
+
+DENSITY: "summation" (default here) or "continuity" (wcsph's default).
 """
 from __future__ import annotations
 
@@ -17,10 +19,11 @@ from sphfluid.bench import dam_break_scene
 from sphfluid.simulation import expected_top_speed
 
 
-def scan(n_target: int, factors: list[float]) -> None:
+def scan(n_target: int, factors: list[float], density: str = "summation") -> None:
     for factor in factors:
         scene = dam_break_scene(n_target, "wcsph")
         scene["solver"]["time_step"] = "auto"
+        scene["solver"]["density"] = density
         top = expected_top_speed(sphfluid.load_scene(scene))
         scene["fluid"]["speed_of_sound"] = factor * top
         sim = sphfluid.Simulation(scene)
@@ -43,4 +46,5 @@ def scan(n_target: int, factors: list[float]) -> None:
 
 if __name__ == "__main__":
     scan(int(sys.argv[1]) if len(sys.argv) > 1 else 3000,
-         [float(f) for f in (sys.argv[2] if len(sys.argv) > 2 else "10,20,30,40").split(",")])
+         [float(f) for f in (sys.argv[2] if len(sys.argv) > 2 else "10,20,30,40").split(",")],
+         sys.argv[3] if len(sys.argv) > 3 else "summation")

@@ -205,7 +205,8 @@ def _wcsph_note(spacing: float) -> str:
     return (
         f"SPlisHSPlasH WCSPH, our c0 and dt: Tait EOS gamma 7 with stiffness rho0 c0^2/7, "
         f"c0 = {c0:.1f} m/s as ours, negative pressure clamped to 0, fixed dt = 0.3 dx/c0 = "
-        f"{0.3 * spacing / c0:.3g} s as ours (its CFL rule ignores c0), symplectic Euler; "
+        f"{0.3 * spacing / c0:.3g} s as our summed density's on its support of 2 dx (its "
+        f"CFL rule ignores c0), symplectic Euler; "
         + _SPLISHSPLASH_COMMON
     )
 
