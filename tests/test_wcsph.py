@@ -113,9 +113,11 @@ def test_speed_of_sound_is_ten_times_the_expected_top_speed():
 
 @pytest.mark.slow
 def test_hydrostatic_tank_with_wcsph():
-    """Density within 1 % of rho0 (the Mach 0.1 of c0 = 10 U gives ~0.5 %), and the
-    pressure gradient of a real liquid, rho0 g (unlike the seed's), within 20 %."""
-    scene = wcsph_scene("hydrostatic.json", viscosity=0.0)
+    """The summed density (W2): density within 1 % of rho0 (the Mach 0.1 of
+    c0 = 10 U gives ~0.5 %), and the pressure gradient of a real liquid, rho0 g
+    (unlike the seed's), within 20 %. (The continuity density's tank:
+    tests/test_wcsph_continuity.py.)"""
+    scene = wcsph_scene("hydrostatic.json", "summation", viscosity=0.0)
     sim = sphfluid.Simulation(scene)
     sim.run(2.0)
     slopes, compress, speeds = [], [], []
@@ -199,13 +201,13 @@ def test_corner_share_matches_the_mirrored_lattice_and_the_continuum():
 
 @pytest.mark.slow
 def test_energy_in_a_closed_tank_stays_constant_after_settling():
-    """Closed tank, no physical viscosity, the default artificial viscosity 0.1:
-    the start (at rho0, not yet compressed by gravity) dissipates about 1.4 % of
+    """The summed density (W2, whose clamp the energy below follows). Closed
+    tank, no physical viscosity, the default artificial viscosity 0.1: the start (at rho0, not yet compressed by gravity) dissipates about 1.4 % of
     M g H while it settles; after that the total energy (kinetic + gravitational
     + Tait elastic) drifts by under 1e-3 M g H (measured: 6e-5 over 2.5 s). With
     alpha = 0.02 the same tank gains energy (0.11 M g H in 3 s): wcsph needs it."""
     d = json.loads((ROOT / "scenes" / "hydrostatic.json").read_text())
-    d["solver"] = {"method": "wcsph", "time_step": "auto"}
+    d["solver"] = {"method": "wcsph", "time_step": "auto", "density": "summation"}
     d["fluid"]["viscosity"] = 0.0
     d["walls"] = [{"polyline": [[0.0, 1.2], [0.0, 0.0], [1.0, 0.0], [1.0, 1.2]],
                    "closed": True}]

@@ -2,11 +2,15 @@
 rate, the diffusion and the forces against a brute-force NumPy evaluation
 (tests/reference.py), the same state on one thread and on two, and the scene
 options."""
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
 import sphfluid
 from sphfluid import _core
+from conftest import ROOT
 from sphfluid.scene import SceneError
 from reference import (delta_forces, delta_rate, laplacian_sums, shift, shift_rate,
                        surface_floor)
@@ -448,3 +452,32 @@ def test_auto_shifting_shifts_confined_flows_and_not_free_surfaces():
     states = {k: _final_state(dam.scene(10, "wcsph"), k, 0.3)[1]() for k in ("auto", 0.0, 8.0)}
     np.testing.assert_array_equal(states["auto"], states[0.0])
     assert np.abs(states["auto"] - states[8.0]).max() > 1e-6
+    # a support of 2 spacings (the bundled tank's): its surface rows sum to 0.90
+    tank = json.loads((ROOT / "scenes" / "hydrostatic.json").read_text())
+    tank["solver"] = {"method": "wcsph", "time_step": "auto"}
+    states = {k: _final_state(tank, k, 0.05)[1]() for k in ("auto", 0.0, 8.0)}
+    np.testing.assert_array_equal(states["auto"], states[0.0])
+    assert np.abs(states["auto"] - states[8.0]).max() > 1e-9
+
+
+def test_default_density_follows_the_scene():
+    """The continuity density by default; the summation with surface tension,
+    unless shifting or diffusion is asked for or a wall slides; the seed sums."""
+    d = json.loads((ROOT / "scenes" / "droplet.json").read_text())
+    d["solver"] = {"method": "wcsph", "time_step": "auto"}
+    assert sphfluid.load_scene(d).density == "summation"
+    for key, value in (("shifting", 8), ("density_diffusion", 0.1)):
+        assert sphfluid.load_scene(dict(d, solver=dict(d["solver"], **{key: value}))).density \
+            == "continuity"
+    lid = dict(d, walls=[{"polyline": [[-0.45, 0.45], [0.45, 0.45]], "velocity": [0.1, 0.0]}])
+    assert sphfluid.load_scene(lid).density == "continuity"
+    still = dict(d, walls=[{"polyline": [[-0.45, 0.45], [0.45, 0.45]], "velocity": [0.0, 0.0]}])
+    assert sphfluid.load_scene(still).density == "summation"
+    no_tension = dict(d, fluid=dict(d["fluid"], surface_tension=0.0))
+    assert sphfluid.load_scene(no_tension).density == "continuity"
+    for scene in (d, lid, no_tension, dict(d, solver=dict(d["solver"], shifting=8))):
+        loaded = sphfluid.load_scene(scene)
+        assert sphfluid.load_scene(loaded.to_dict()) == loaded
+    seed = dataclasses.replace(sphfluid.load_scene(no_tension), method="seed", gas_constant=20.0)
+    assert seed.density == "summation"
+    assert sphfluid.load_scene(seed.to_dict()) == seed

@@ -57,10 +57,21 @@ SPHFLUID_INLINE void rate(simd::Mask<L> in, L F, const RateConstants<L>& c, L rh
 // surface is).
 constexpr Real kSurfaceSum = 0.95;
 // "shifting": "auto" shifts only a confined flow, one where no particle's
-// kernel sum is below kOpenSurfaceSum at the start: on the lattice, the outer
-// row of a flat free surface has 0.75 with the support of 3 dx (a corner
-// less), a fluid that fills its box or a periodic one 1.
-constexpr Real kOpenSurfaceSum = 0.85;
+// kernel sum is below open_surface_sum at the start: halfway between the sum
+// of a particle inside the lattice and that of the outer row of a flat free
+// surface on it (0.75 with the support of 3 dx, 0.90 with 2 dx; a corner
+// less). vol = m / rho0.
+inline Real open_surface_sum(const Wendland& W, Real dx, Real vol) {
+  const int reach = static_cast<int>(std::ceil(W.h / dx));
+  Real inside = 0, row = 0;
+  for (int k = -reach; k <= reach; ++k)
+    for (int i = -reach; i <= reach; ++i) {
+      const Real w = vol * W.value(dx * std::hypot(Real(i), Real(k)));
+      inside += w;
+      if (k <= 0) row += w;
+    }
+  return Real(0.5) * (inside + row);
+}
 inline Real surface_floor(Real rho, Real sum, Real rho0) {
   return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;
 }

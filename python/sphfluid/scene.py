@@ -55,13 +55,14 @@ PAIR_PRECISIONS = ("double", "float")
 DENSITIES = ("continuity", "summation")
 
 
-def default_density(method: str, surface_tension: float | None) -> str:
+def default_density(method: str, surface_tension: float | None, sliding: bool = False) -> str:
     """solver.density where a scene does not say: the continuity density for
     wcsph, but the summation with surface tension, whose pressures (sigma / R)
     are small enough for a carried density's drift to show (the validation
-    droplet at 20 across: 13 % from Laplace's pressure, 1.1 % summed); the
-    seed's density is always summed."""
-    if method != "wcsph" or surface_tension:
+    droplet at 20 across: 13 % from Laplace's pressure, 1.1 % summed), unless
+    a wall slides (which needs the continuity density); the seed's density
+    is always summed."""
+    if method != "wcsph" or (surface_tension and not sliding):
         return "summation"
     return "continuity"
 DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
@@ -176,6 +177,10 @@ class Scene:
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     source: str | None = field(default=None, compare=False)
 
+    def __post_init__(self) -> None:
+        if self.method != "wcsph" and self.density != "summation":
+            object.__setattr__(self, "density", "summation")  # the seed sums (SPEC.md)
+
     def _walls_json(self) -> list:
         """The walls as the scene format writes them: a moving surface's segment as
         {"polyline": [a, b], "velocity": [u, v]}."""
@@ -248,8 +253,8 @@ class Scene:
             out["solver"]["on_instability"] = self.on_instability
         if self.pair_precision != "double":
             out["solver"]["pair_precision"] = self.pair_precision
-        if self.method == "wcsph" and self.density != default_density(self.method,
-                                                                      self.surface_tension):
+        if self.method == "wcsph" and self.density != default_density(
+                self.method, self.surface_tension, bool(self.wall_velocities)):
             out["solver"]["density"] = self.density
         if self.density_diffusion != DEFAULT_DENSITY_DIFFUSION:
             out["solver"]["density_diffusion"] = self.density_diffusion
@@ -394,7 +399,11 @@ class _Validator:
         solver = self.solver(d)
         fluid = self.fluid(d, solver.method)
         if solver.density is None:
-            solver = solver._replace(density=default_density(solver.method, fluid.sigma))
+            sliding = any(isinstance(w, dict) and isinstance(w.get("velocity"), list)
+                          and any(w["velocity"]) for w in
+                          (d.get("walls") if isinstance(d.get("walls"), list) else []))
+            solver = solver._replace(density=default_density(solver.method, fluid.sigma,
+                                                             sliding))
         res = self.resolution(d, continuity=solver.method == "wcsph"
                               and solver.density == "continuity")
         regions = self.regions(d)

@@ -81,11 +81,12 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.cfl = scene.cfl
     p.float_pairs = scene.pair_precision == "float"
     p.continuity = scene.method == "wcsph" and scene.density == "continuity"
-    p.delta = scene.density_diffusion
-    if scene.shifting == "auto":  # W21: only a flow with no free surface at its start
-        p.shifting, p.shift_confined = AUTO_SHIFTING, True
-    else:
-        p.shifting = scene.shifting
+    if p.continuity:
+        p.delta = scene.density_diffusion
+        if scene.shifting == "auto":  # W21: only a flow with no free surface at its start
+            p.shifting, p.shift_confined = AUTO_SHIFTING, True
+        else:
+            p.shifting = scene.shifting
     # The guard bounds the surface energy by sigma x the regions' perimeters.
     p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0

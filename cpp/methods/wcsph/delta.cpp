@@ -36,6 +36,7 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   walls_.build(P_.spacing, P_.mass / P_.rho0, true);  // rows fixed to the wall (W20)
   const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
   inv_wdx_ = 1 / kernel_.value(dx);
+  open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
   alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
   // the rows' share of the shifting sum (W21), with the fluid's pair weight
   walls_.build_weighted_line(
@@ -255,7 +256,7 @@ void DeltaWcsphMethod::density(Real dt) {
   for (Index i = 0; i < n; ++i) {
     rho_w[i] = delta::surface_floor(rho_w[i] + dt * rl[i].x(), sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
-    surface += sums[i] < delta::kOpenSurfaceSum;
+    surface += sums[i] < open_sum_;
   }
   if (!shape_known_ && n > 0) {  // shift_confined: the fluid's shape at the start
     confined_ = surface == 0;

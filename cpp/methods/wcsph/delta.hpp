@@ -84,7 +84,7 @@ class DeltaWcsphMethod final : public SphMethod {
   // Whether the next drift shifts, so this evaluation takes the shifting sums:
   // with shifting, and with shift_confined only in a confined flow, one where
   // no particle of the first evaluation with particles was at a free surface
-  // (a kernel sum below delta::kOpenSurfaceSum).
+  // (a kernel sum below open_sum_, delta::open_surface_sum).
   bool shifts_next() const { return P_.shifting > 0 && (!P_.shift_confined || confined_); }
 
   using StepFn = void(DeltaWcsphMethod&, Real, Real);
@@ -108,6 +108,7 @@ class DeltaWcsphMethod final : public SphMethod {
   std::vector<Vec2> shift_sum_;   // W21's sum of each particle
   std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
   std::unique_ptr<Field<Vec2>> shift_;  // the next drift's shift, m (with shifting only)
+  Real open_sum_;             // delta::open_surface_sum of the lattice
   bool shape_known_ = false;  // shift_confined: whether the fluid's shape is known,
   bool confined_ = false;     // and whether it has no free surface
   Real shift_per_dt_ = 0;         // 1 / dt of a step whose drift shifted, else 0
