@@ -265,8 +265,10 @@ def test_floor_terms_equal_the_rows_they_stand_for():
         rows = wall_rows(x[i], d, dx, h)
         gw = wendland_grad(rows, h)
         # W8 with the particle's pressure (at least 0), and W20's extrapolation
-        # of it along g: p_j - p_i = rho_i g . (x_j - x_i) = -rho_i g . r_ij
-        coef = 2 * max(pr[i], 0.0) / rho[i] ** 2 - (rows @ np.asarray(g)) / rho[i]
+        # of it along g: p_j - p_i = rho_i g . (x_j - x_i) = -rho_i g . r_ij;
+        # the rows at the particle's density, of mass m rho_i / rho0: the pair's
+        # m_j (p_i + p_j) / (rho_i rho_j) = m (p_i + p_j) / (rho0 rho_i)
+        coef = 2 * max(pr[i], 0.0) / (RHO0 * rho[i]) - (rows @ np.asarray(g)) / RHO0
         a[i] -= m * (coef[:, None] * gw).sum(0)
         # W9's artificial viscosity: one particle at rest at the foot of the
         # perpendicular

@@ -175,10 +175,12 @@ SPHFLUID_INLINE void shift_rate(L F, L rho_i, L rho_j, L vol_i, L vol_j, L dx, L
 // towards the particle (a corner's quadrant once), the time derivative of
 // the rows' share of a summation density; their pressure is the particle's
 // extrapolated along gravity, p_j = p_i + rho_i g . (x_j - x_i) (Adami, Hu &
-// Adams 2012), which adds to W8's push
-//   a_i += (rho0 / rho_i) [-(g . n) Psi_nn(d) n - (g . t) Psi_tt(d) t],
+// Adams 2012), and their density the particle's (the fluid continued through
+// the wall is as compressed as the particle: rows of mass m rho_i / rho0),
+// which adds to W8's push
+//   a_i += -(g . n) Psi_nn(d) n - (g . t) Psi_tt(d) t,
 // t the wall's tangent; in a corner the quadrant both half-planes counted is
-// taken out once: (rho0 / rho_i) [(g1 C11 + g2 C12) n1 + (g1 C12 + g2 C22) n2],
+// taken out once: (g1 C11 + g2 C12) n1 + (g1 C12 + g2 C22) n2,
 // g_k = g . n_k, C the quadrant's sums (WallTables::corner_11, corner_12).
 inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, const Vec2& vi,
                           Real& d) {
@@ -190,19 +192,17 @@ inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, con
     d += rho_i * (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
   });
 }
-inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, Real rho0, Real inv_i,
-                                 const Vec2& g, Vec2& f) {
+inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Vec2& g, Vec2& f) {
   for (const Vec2& r : ghosts) {
     const Real rl = r.norm();
     if (!(rl > 0)) continue;
     const Vec2 n = r / rl, tg(-n.y(), n.x());
-    f += (rho0 * inv_i) * (-g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg);
+    f += -g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg;
   }
   wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     const Vec2 n1 = r1 / d1, n2 = r2 / d2;
     const Real g1 = g.dot(n1), g2 = g.dot(n2), c12 = t.corner_12(d1, d2);
-    f += (rho0 * inv_i) * ((g1 * t.corner_11(d1, d2) + g2 * c12) * n1 +
-                           (g1 * c12 + g2 * t.corner_11(d2, d1)) * n2);
+    f += (g1 * t.corner_11(d1, d2) + g2 * c12) * n1 + (g1 * c12 + g2 * t.corner_11(d2, d1)) * n2;
   });
 }
 

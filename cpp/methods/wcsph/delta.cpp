@@ -41,7 +41,9 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   // the rows' share of the shifting sum (W21), with the fluid's pair weight
   walls_.build_weighted_line(
       [&](Real r) { return delta::shift_weight(kernel_, r, inv_wdx_); }, P_.mass / P_.rho0);
-  if (P_.shifting > 0)  // the shift moves with its particle through the sort
+  // The shift moves with its particle through the sort; with "auto" the field
+  // waits for the fluid's shape (density()).
+  if (P_.shifting > 0 && !P_.shift_confined)
     shift_ = std::make_unique<Field<Vec2>>(ctx.ps, "shift", FieldKind::kState);
   if (P_.sigma > 0)  // W10-W12; the colour kernel's support 4 dx (docs, "Surface tension")
     surface_ = SurfaceEnergy(P_.sigma, 4 * dx, dx, P_.domain_min, ctx.box);
@@ -256,11 +258,13 @@ void DeltaWcsphMethod::density(Real dt) {
   for (Index i = 0; i < n; ++i) {
     rho_w[i] = delta::surface_floor(rho_w[i] + dt * rl[i].x(), sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
-    surface += sums[i] < open_sum_;
+    if (!shape_known_) surface += sums[i] < open_sum_;
   }
   if (!shape_known_ && n > 0) {  // shift_confined: the fluid's shape at the start
     confined_ = surface == 0;
     shape_known_ = true;
+    if (shifts_next() && !shift_)
+      shift_ = std::make_unique<Field<Vec2>>(ps, "shift", FieldKind::kState);
   }
   ctx_.timer.mark(kDensity);
 }
@@ -418,8 +422,9 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
   const Real* p = ps.p.data();
   const Real* ir = inv_rho_.data();
   const Vec2* v = ps.v.data();
-  // W8 and W9's artificial viscosity; the physical one by W25's rows
-  wcsph::add_wall_force<false>(walls_, kernel_, constants<Real>(), P_.rho0, ghosts,
+  // W8 and W9's artificial viscosity, the rows at the particle's density
+  // (W20); the physical one by W25's rows
+  wcsph::add_wall_force<false>(walls_, kernel_, constants<Real>(), 1 / ir[i], ghosts,
                                p[i] * ir[i] * ir[i], ir[i], v[i], f);
   if constexpr ((F & kViscosity) != 0) {
     const Vec2 xi = ps.x[i];
@@ -429,7 +434,7 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
     };
     delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i], v[i], wall_velocity, f);
   }
-  delta::add_wall_hydrostatic(walls_, ghosts, P_.rho0, ir[i], P_.gravity, f);
+  delta::add_wall_hydrostatic(walls_, ghosts, P_.gravity, f);
 }
 
 // W21: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),
