@@ -462,6 +462,29 @@ def test_auto_shifting_shifts_confined_flows_and_not_free_surfaces():
     assert np.abs(states["auto"] - states[8.0]).max() > 1e-9
 
 
+def test_auto_shifting_decides_again_for_a_new_fluid():
+    """set_state replaces the fluid: "auto" decides again. A filled cavity
+    shifts (k = 8); given its lower half instead (a free surface), it runs as
+    with k = 0 from there on, not as with k = 8."""
+    from sphfluid.validation.cases import CASES
+    d = CASES["cavity"].scene(20, "wcsph")
+    d["solver"] = {k: v for k, v in d["solver"].items() if k != "cfl"} | {"time_step": 2e-4}
+    start = sphfluid.Simulation(sphfluid.load_scene(d), threads=1).positions
+    half = start[start[:, 1] < 0.5]
+    swirl = 0.2 * np.c_[np.sin(np.pi * half[:, 0]) * np.cos(2 * np.pi * half[:, 1]),
+                        -np.cos(np.pi * half[:, 0]) * np.sin(2 * np.pi * half[:, 1])]
+    states = {}
+    for k in ("auto", 0.0, 8.0):
+        sim = sphfluid.Simulation(sphfluid.load_scene(
+            dict(d, solver=dict(d["solver"], shifting=k))), threads=1)
+        sim.step(20)
+        sim.set_state(half, swirl)
+        sim.step(200)
+        states[k] = sim.positions[np.argsort(sim.ids)].copy()
+    np.testing.assert_array_equal(states["auto"], states[0.0])
+    assert np.abs(states["auto"] - states[8.0]).max() > 1e-9
+
+
 def test_default_density_follows_the_scene():
     """The continuity density by default; the summation with surface tension,
     unless shifting or diffusion is asked for or a wall slides; the seed sums."""

@@ -64,6 +64,10 @@ void DeltaWcsphMethod::select(unsigned features) {
 void DeltaWcsphMethod::particles_added(Index first) {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
+  if (first == 0) {  // a new fluid (set_state): "auto" shifting decides again
+    shape_known_ = confined_ = false;
+    shift_sum_.clear();
+  }
   const Real gl = P_.gravity.norm();
   const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
                           (P_.periodic_y && P_.gravity.y() != 0);

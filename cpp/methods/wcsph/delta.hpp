@@ -84,7 +84,8 @@ class DeltaWcsphMethod final : public SphMethod {
   // Whether the next drift shifts, so this evaluation takes the shifting sums:
   // with shifting, and with shift_confined only in a confined flow, one where
   // no particle of the first evaluation with particles was at a free surface
-  // (a kernel sum below open_sum_, delta::open_surface_sum).
+  // (a kernel sum below open_sum_, delta::open_surface_sum); a new fluid
+  // (particles_added(0)) is tested again.
   bool shifts_next() const { return P_.shifting > 0 && (!P_.shift_confined || confined_); }
 
   using StepFn = void(DeltaWcsphMethod&, Real, Real);
