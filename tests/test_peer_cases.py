@@ -112,6 +112,22 @@ def test_non_finite_velocities_fail():
     assert math.isnan(r["error"]) and r["failure"] == "non-finite velocities"
 
 
+@pytest.mark.parametrize(("case", "scheme"), list(cases.PAIRS))
+def test_every_pair_has_a_subprocess_configuration(case, scheme):
+    cfg = cases._child_config(case, scheme, 10, "/nonexistent", None)
+    assert cfg["options"][:len(cases.PAIRS[case, scheme])] == list(cases.PAIRS[case, scheme])
+    assert cfg["times"] == sorted(cfg["times"]) and cfg["times"][0] > 0
+    assert cfg["times"][-1] == {"taylor_green": 1.0, "poiseuille": 1.0, "hydrostatic": 5.0,
+                                "cavity": 30.0}[case]
+    if case in ("taylor_green", "cavity"):
+        assert cfg["options"][cfg["options"].index("--re") + 1] == "100"
+    if case == "poiseuille":
+        assert cfg["options"] == ["--re", "0.025"] and cfg["viscous_time"] == 1.0
+    if case == "hydrostatic":
+        assert cfg["tank"] == {"width": 1.0, "wall_top": 1.5, "depth": 1.0, "g": 9.81,
+                               "duration": 5.0}
+
+
 def test_unknown_pairs_are_refused(capsys):
     with pytest.raises(ValueError, match="no PySPH run"):
         cases.run_case("dam_break", "wcsph", 10)

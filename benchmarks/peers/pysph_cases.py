@@ -322,13 +322,12 @@ def read_snapshots(directory: str | Path, times: list[float]) -> list[Snapshot]:
 def _example_options(case: str, scheme: str, n: int) -> list[str]:
     """The example's own options for our case."""
     options = list(PAIRS[case, scheme])
-    re = f"{_reynolds(case):.12g}"
     if case in ("taylor_green", "cavity"):
-        options += ["--nx", str(n), "--re", re]
+        options += ["--nx", str(n), "--re", f"{_reynolds(case):.12g}"]
     if case == "taylor_green":
         options += ["--perturb", "0"]
     if case == "poiseuille":
-        options += ["--re", re]
+        options += ["--re", f"{_reynolds(case):.12g}"]
     return options
 
 
@@ -361,10 +360,12 @@ def _child_config(case: str, scheme: str, n: int, workdir: str,
 
 def _set_poiseuille_spacing(ex, app, n: int) -> None:
     """The example's resolution is module constants (dx = 1/60): dx = gap/n, with
-    h = hdx dx and walls 5 dx deep as the example derives them."""
+    h = hdx dx and walls 5 dx deep as the example derives them (and its scheme,
+    created with the application, told the new h)."""
     ex.dx = app.Ly / n
     ex.h0 = ex.hdx * ex.dx
     ex.ghost_extent = 5 * ex.dx
+    app.scheme.configure(h0=ex.h0)
 
 
 def _set_hydrostatic_tank(ex, n: int, tank: dict, times: list[float]) -> None:
