@@ -2,12 +2,18 @@
 
 The scoring is checked on exact fields without PySPH: the PySPH output goes
 through our cases' own sample() and score(), with the parameters of the PySPH run.
-One real run of the cheapest case (Poiseuille, 10 particles across the gap, under a
-minute with PySPH's compilation) is skipped when PySPH is not installed.
+The subprocess' handling (reports as they come, timeouts, crashes, Ctrl-C: no
+process left behind) is checked with a fake subprocess speaking the same protocol.
+One real run of the cheapest case (Poiseuille, 10 particles across the gap, one
+thread: seconds, a minute with PySPH's first compilation), marked slow, is skipped
+when PySPH is not installed.
 """
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -138,13 +144,138 @@ def test_unknown_pairs_are_refused(capsys):
     assert "taylor_green edac" in listed and "poiseuille tvf" in listed
 
 
+def test_what_validate_peers_runs():
+    assert cases.schemes("taylor_green") == ("edac", "tvf", "wcsph")
+    assert cases.schemes("hydrostatic") == ("adami", "monaghan_kajtar", "dynamic")
+    assert cases.schemes("dam_break") == ()
+    for case in {c for c, _ in cases.PAIRS}:
+        for mode in ("quick", "full"):
+            assert cases.resolutions(case, mode) == CASES[case].resolutions[mode]
+    with pytest.raises(ValueError, match="no PySPH peer"):
+        cases.resolutions("droplet", "quick")
+    assert cases.label("edac", "1.0b2") == "PySPH 1.0b2 EDAC"
+    assert cases.label("adami", "1.0b2") == "PySPH 1.0b2 WCSPH, Adami walls"
+    assert cases.label("tvf", "") == "PySPH TVF"
+    assert set(cases.SCHEME_NAMES) == {s for _, s in cases.PAIRS}
+
+
+# A stand-in for the subprocess: the report lines of a run of 100 particles to
+# t_end = 2, then what FAKE_MODE says. It writes its pid and its own child's
+# (a sleeper in the same session) to $FAKE_PIDS.
+FAKE_CHILD = r'''
+import json, os, subprocess, sys, time
+TAG = "@pysph-case"
+def report(kind, **fields):
+    print(TAG, kind, json.dumps(fields), flush=True)
+sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+with open(os.environ["FAKE_PIDS"], "w") as f:
+    f.write(f"{os.getpid()} {sleeper.pid}")
+print("the example's own output")
+report("start", version="0.0", particles=100, setup_s=0.5, t_end=2.0)
+mode = os.environ["FAKE_MODE"]
+if mode == "abort":
+    os.abort()
+if mode == "no report":
+    sys.exit(0)
+report("progress", t=1.0, steps=40, wall_s=0.25)
+print(TAG, "progress {\"t\": 1.5, \"st", flush=True)  # cut short: ignored
+time.sleep(60)
+'''
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # a zombie has ended
+    except FileNotFoundError:
+        return False
+
+
+@pytest.fixture
+def fake_child(monkeypatch, tmp_path):
+    """The driver's subprocess replaced by FAKE_CHILD; returns a function giving the
+    pids it wrote. PySPH need not be installed (json is found in its place)."""
+    script = tmp_path / "fake_child.py"
+    script.write_text(FAKE_CHILD)
+    pids = tmp_path / "pids"
+    monkeypatch.setattr(cases, "PEER_MODULE", "json")
+    monkeypatch.setattr(cases, "_child_command",
+                        lambda config: [sys.executable, str(script), str(config)])
+    monkeypatch.setenv("FAKE_PIDS", str(pids))
+
+    def ended() -> bool:
+        """Whether the fake and its sleeper have both ended (within 5 s)."""
+        found = [int(p) for p in pids.read_text().split()]
+        deadline = time.monotonic() + 5.0
+        while any(_alive(p) for p in found) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return len(found) == 2 and not any(_alive(p) for p in found)
+
+    return ended
+
+
+def test_a_timed_out_run_keeps_what_it_reported_and_leaves_no_process(fake_child,
+                                                                       monkeypatch):
+    monkeypatch.setenv("FAKE_MODE", "sleep")
+    seen = []
+    r = cases.run_case("taylor_green", "edac", 10, timeout=3.0,
+                       progress=lambda done, s: seen.append(done))
+    assert r["failure"] == "timed out after 3 s at 50 % of its simulated time"
+    assert (r["version"], r["particles"], r["steps"], r["wall_s"]) == ("0.0", 100, 40, 0.25)
+    assert math.isnan(r["error"])
+    assert seen == [0.5]
+    assert fake_child()
+
+
+@pytest.mark.parametrize(("mode", "failure"), [
+    ("abort", "killed by SIGABRT before its first output"),
+    ("no report", "ended without its report before its first output"),
+])
+def test_a_run_that_dies_is_a_failure(fake_child, monkeypatch, mode, failure):
+    monkeypatch.setenv("FAKE_MODE", mode)
+    r = cases.run_case("taylor_green", "edac", 10, timeout=60.0)
+    assert r["failure"] == failure and r["particles"] == 100
+    assert fake_child()
+
+
+def test_an_interrupted_caller_kills_the_run(fake_child, monkeypatch, tmp_path):
+    monkeypatch.setenv("FAKE_MODE", "sleep")
+
+    class Interrupted(subprocess.Popen):
+        def wait(self, timeout=None):
+            if timeout is None:  # the kill's wait
+                return super().wait()
+            deadline = time.monotonic() + 30.0  # the run is under way: Ctrl-C
+            while not (tmp_path / "pids").exists() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(cases.subprocess, "Popen", Interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        cases.run_case("taylor_green", "edac", 10, timeout=60.0)
+    assert fake_child()
+
+
+def test_availability_without_pysph(monkeypatch):
+    monkeypatch.setattr(cases, "PEER_MODULE", "sphfluid_no_such_peer")
+    assert cases.availability() == ("", "sphfluid_no_such_peer is not installed "
+                                        "(pip install pysph==1.0b2; docs/peers.md)")
+    r = cases.run_case("poiseuille", "tvf", 10)
+    assert r["failure"].startswith("sphfluid_no_such_peer is not installed")
+
+
 @pytest.mark.slow
 def test_pysph_poiseuille_at_ten_particles():
     pytest.importorskip("pysph")
-    r = cases.run_case("poiseuille", "tvf", 10, threads=2, timeout=300)
+    version, reason = cases.availability()
+    assert reason == "" and version == "1.0b2"
+    seen = []
+    r = cases.run_case("poiseuille", "tvf", 10, threads=1, timeout=300,
+                       progress=lambda done, s: seen.append(done))
     assert r["failure"] == "", r["failure"]
-    assert r["peer"] == "pysph" and r["version"]
+    assert r["peer"] == "pysph" and r["version"] == version
     assert r["particles"] == 40  # 10 rows, the example's width 0.4 gap
     assert r["steps"] > 0 and r["wall_s"] > 0
+    assert seen[0] == 0.0 and seen[-1] == pytest.approx(1.0) and seen == sorted(seen)
     # 2.0 % measured (PySPH 1.0b2); ours is of the same order at this resolution
     assert 0.002 < r["error"] < 0.1

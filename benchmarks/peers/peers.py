@@ -31,7 +31,6 @@ import importlib.util
 import json
 import math
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -41,6 +40,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from sphfluid.bench import exit_reason
 from sphfluid.dam_break import GEOMETRY
 from sphfluid.scene import load_scene
 from sphfluid.simulation import speed_of_sound
@@ -301,19 +301,6 @@ def _peer_env(peer: _Peer, threads: int) -> dict[str, str]:
     return env
 
 
-def _exit_reason(returncode: int, stderr: str) -> str:
-    """'killed by SIGSEGV' or 'exit code 1', and the last line of stderr if any."""
-    if returncode < 0:
-        try:
-            how = f"killed by {signal.Signals(-returncode).name}"
-        except ValueError:
-            how = f"killed by signal {-returncode}"
-    else:
-        how = f"exit code {returncode}"
-    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
-    return f"{how}: {lines[-1][:300]}" if lines else how
-
-
 def _unavailable_reason(peer: _Peer) -> str | None:
     if importlib.util.find_spec(peer.module) is None:
         return f"not installed (pip install {peer.requirement}; see docs/peers.md)"
@@ -324,7 +311,7 @@ def _unavailable_reason(peer: _Peer) -> str | None:
     except subprocess.TimeoutExpired:
         return f"`{peer.probe}` did not finish in {IMPORT_TIMEOUT:.0f} s"
     if probe.returncode != 0:
-        return f"`{peer.probe}` failed ({_exit_reason(probe.returncode, probe.stderr)})"
+        return f"`{peer.probe}` failed ({exit_reason(probe.returncode, probe.stderr)})"
     return None
 
 
@@ -409,7 +396,7 @@ def run_peer(name: str, *, spacing: float, end_time: float, threads: int = 2,
                                   text=True, timeout=timeout)
             stdout, failure = proc.stdout, ""
             if proc.returncode != 0:
-                failure = _exit_reason(proc.returncode, proc.stderr)
+                failure = exit_reason(proc.returncode, proc.stderr)
         except subprocess.TimeoutExpired as exc:
             stdout = _as_text(exc.stdout)
             failure = f"timed out after {timeout:.0f} s"

@@ -12,7 +12,10 @@ as ours. A crash or a hang of PySPH cannot take the caller down.
     python benchmarks/peers/pysph_cases.py --case taylor_green --scheme edac --n 25 \\
         [--threads 2] [--timeout 3600] [--end-time 30]
 
-prints the result of :func:`run_case` as a JSON line.
+prints the result of :func:`run_case` as a JSON line (and its progress on stderr).
+``sphfluid validate --peers`` runs every pair of :data:`PAIRS` for the cases it
+runs, at :func:`resolutions`, and shows them beside ours, labelled by
+:func:`label`; :func:`availability` says first whether PySPH can run here.
 
 The cases, and how each example is set up (``note`` in the result repeats it):
 
@@ -63,7 +66,13 @@ temporary directory (:data:`CACHE_DIR`), kept between runs.
 The subprocess imports PySPH and numpy only, never sphfluid (an editable install
 of sphfluid may rebuild its extension when imported): what it needs of our cases
 (their times, Re, the tank) comes in its configuration file, written by
-:func:`run_case`, which imports sphfluid.validation on first use.
+:func:`run_case`, which imports sphfluid.validation on first use. It reports on
+stdout, one line each (``@pysph-case KIND {json}``): ``start`` after the set-up
+(version, particles, ``setup_s``, ``t_end``), ``progress`` at each output time
+(``t``, ``steps``, ``wall_s`` so far) and ``done`` at the end (the totals), so that
+a run that times out or crashes still has its particle count and how far it got.
+The subprocess runs in a session of its own, which is killed whole (PySPH and the
+compiler it may have started) when it times out or the caller is interrupted.
 """
 from __future__ import annotations
 
@@ -78,7 +87,9 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -92,17 +103,25 @@ if TYPE_CHECKING:
 __all__ = [
     "CACHE_DIR",
     "PAIRS",
+    "SCHEME_NAMES",
     "Snapshot",
+    "availability",
+    "label",
     "main",
     "our_case",
     "read_snapshots",
+    "resolutions",
     "run_case",
+    "schemes",
     "score",
 ]
 
 CACHE_DIR = Path(tempfile.gettempdir()) / "sphfluid-pysph-home"  # HOME of the runs
 FNAME = "pysph_case"  # the output files' prefix
-_TAG = "@pysph-case"  # prefix of the subprocess' report line on stdout
+_TAG = "@pysph-case"  # prefix of the subprocess' report lines on stdout
+PEER_MODULE = "pysph"  # what availability() imports
+REQUIREMENT = "pysph==1.0b2"  # the version these drivers were written against
+PROBE_TIMEOUT = 120.0  # s for availability()'s import of PySPH
 _QUIET_PFREQ = 10**9  # output every this many steps: never; only at our sample times
 
 # (case, scheme) -> the example's options choosing the scheme
@@ -118,6 +137,16 @@ PAIRS: dict[tuple[str, str], tuple[str, ...]] = {
     ("cavity", "edac"): ("--scheme", "edac"),
 }
 
+# scheme -> how a table names it (the hydrostatic tank's are its wall models)
+SCHEME_NAMES = {
+    "edac": "EDAC",
+    "tvf": "TVF",
+    "wcsph": "WCSPH",
+    "adami": "WCSPH, Adami walls",
+    "monaghan_kajtar": "WCSPH, Monaghan-Kajtar walls",
+    "dynamic": "WCSPH, dynamic walls",
+}
+
 _EXAMPLES = {  # case -> (module of pysph.examples, its Application)
     "taylor_green": ("taylor_green", "TaylorGreen"),
     "poiseuille": ("poiseuille", "PoiseuilleFlow"),
@@ -131,6 +160,50 @@ def _validation():
     from sphfluid.validation import cases
 
     return cases
+
+
+def schemes(case: str) -> tuple[str, ...]:
+    """The schemes PySPH runs a case with (none for a case it has no example of)."""
+    return tuple(s for c, s in PAIRS if c == case)
+
+
+def resolutions(case: str, mode: str) -> tuple[int, ...]:
+    """The n at which ``sphfluid validate --peers`` runs a case: ours in that mode
+    ("quick" or "full"), so that each of our points has PySPH's at the same n
+    (every example takes any n >= 2)."""
+    if not schemes(case):
+        raise ValueError(f"no PySPH peer for case {case!r}")
+    return tuple(_validation().CASES[case].resolutions[mode])
+
+
+def label(scheme: str, version: str) -> str:
+    """How a table names a scheme's rows, e.g. "PySPH 1.0b2 EDAC"."""
+    return " ".join(w for w in ("PySPH", version, SCHEME_NAMES[scheme]) if w)
+
+
+def availability(timeout: float = PROBE_TIMEOUT) -> tuple[str, str]:
+    """Whether PySPH can run here: (its version, "") or ("", a one-line reason).
+
+    PySPH and the examples the cases use are imported in a subprocess, so that an
+    import that crashes cannot take the caller down.
+    """
+    if importlib.util.find_spec(PEER_MODULE) is None:
+        return "", f"{PEER_MODULE} is not installed (pip install {REQUIREMENT}; docs/peers.md)"
+    code = "; ".join([f"import {PEER_MODULE}", f"import {PEER_MODULE}.solver.utils"]
+                     + [f"import {PEER_MODULE}.examples.{m}" for m, _ in _EXAMPLES.values()]
+                     + [f"print({PEER_MODULE}.__version__)"])
+    CACHE_DIR.mkdir(parents=True, exist_ok=True)
+    try:
+        probe = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               env=_child_env(1, CACHE_DIR), timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return "", f"importing {PEER_MODULE} took over {timeout:g} s"
+    if probe.returncode != 0:
+        from sphfluid.bench import exit_reason
+
+        return "", f"importing {PEER_MODULE} failed ({exit_reason(probe.returncode, probe.stderr)})"
+    lines = probe.stdout.split()
+    return (lines[-1] if lines else "?"), ""
 
 
 # --------------------------------------------------------------------------------------
@@ -415,8 +488,13 @@ def _run_params(cfg: dict, ex, app) -> dict:
             "duration": cfg["duration"]}
 
 
+def _report(kind: str, **fields) -> None:
+    """One report line on stdout (the caller reads them as they come)."""
+    print(_TAG, kind, json.dumps(fields), flush=True)
+
+
 def _child(config_file: str) -> None:
-    """Run one example as the configuration file says; print the report line."""
+    """Run one example as the configuration file says, reporting as it goes."""
     import pysph
 
     cfg = json.loads(Path(config_file).read_text(encoding="utf-8"))
@@ -438,31 +516,34 @@ def _child(config_file: str) -> None:
     solver = app.solver
     solver.set_final_time(float(times[-1]))
     solver.set_output_at_times(times)
+    fluid = next(pa for pa in app.particles if pa.name == "fluid")
+    particles = fluid.get_number_of_particles(real=True)
+    _report("start", version=pysph.__version__, particles=particles, setup_s=setup_s,
+            t_end=float(times[-1]))
 
-    dumping = [0.0]
+    clock = {"begin": 0.0, "output": 0.0}  # the stepping's start; time spent writing
     dump = solver.dump_output
 
-    def timed_dump():
+    def timed_dump():  # the output at each sample time, not timed as stepping
         start = time.perf_counter()
         dump()
-        dumping[0] += time.perf_counter() - start
+        now = time.perf_counter()
+        _report("progress", t=float(solver.t), steps=int(solver.count),
+                wall_s=now - clock["begin"] - clock["output"] - (now - start))
+        clock["output"] += time.perf_counter() - start
 
     solver.dump_output = timed_dump
     dt = solver.dt  # the example's time step (the solver shortens some to land on outputs)
-    begin, cpu = time.perf_counter(), time.process_time()
+    clock["begin"], cpu = time.perf_counter(), time.process_time()
     solver.solve(False)
-    total, cpu = time.perf_counter() - begin, time.process_time() - cpu
-    fluid = next(pa for pa in app.particles if pa.name == "fluid")
-    report = {
-        "version": pysph.__version__, "particles": fluid.get_number_of_particles(real=True),
-        "all_particles": sum(pa.get_number_of_particles(real=True) for pa in app.particles),
-        "steps": solver.count, "t": solver.t, "wall_s": total - dumping[0], "cpu_s": cpu,
-        "output_s": dumping[0], "setup_s": setup_s, "times": times.tolist(),
-        "params": params, "kernel": type(solver.kernel).__name__, "h": float(fluid.h[0]),
-        "integrator": type(solver.integrator).__name__, "dt": dt,
-        "threads": os.environ.get("OMP_NUM_THREADS", ""),
-    }
-    print(_TAG, json.dumps(report), flush=True)
+    total, cpu = time.perf_counter() - clock["begin"], time.process_time() - cpu
+    _report("done", version=pysph.__version__, particles=particles,
+            all_particles=sum(pa.get_number_of_particles(real=True) for pa in app.particles),
+            steps=solver.count, t=solver.t, wall_s=total - clock["output"], cpu_s=cpu,
+            output_s=clock["output"], setup_s=setup_s, times=times.tolist(), params=params,
+            kernel=type(solver.kernel).__name__, h=float(fluid.h[0]),
+            integrator=type(solver.integrator).__name__, dt=dt,
+            threads=os.environ.get("OMP_NUM_THREADS", ""))
 
 
 # --------------------------------------------------------------------------------------
@@ -499,19 +580,6 @@ def _note(case: str, scheme: str, n: int, r: dict) -> str:
             f"{interpolation_h(case, n):.3g} m over the fluid particles.")
 
 
-def _exit_reason(returncode: int, stderr: str) -> str:
-    """'killed by SIGSEGV' or 'exit code 1', and the last line of stderr if any."""
-    if returncode < 0:
-        try:
-            how = f"killed by {signal.Signals(-returncode).name}"
-        except ValueError:
-            how = f"killed by signal {-returncode}"
-    else:
-        how = f"exit code {returncode}"
-    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
-    return f"{how}: {lines[-1][:300]}" if lines else how
-
-
 def _child_env(threads: int, cache_dir: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["OMP_NUM_THREADS"] = str(threads)
@@ -520,9 +588,76 @@ def _child_env(threads: int, cache_dir: Path) -> dict[str, str]:
     return env
 
 
+def _read_reports(stream, on_report: Callable[[str, dict], None], errors: list) -> None:
+    """Hand each report line of the subprocess' stdout to on_report, to its end (an
+    error of on_report is kept for the caller, and the pipe still drained)."""
+    for line in stream:
+        parts = line.rstrip("\n").split(" ", 2)
+        if len(parts) != 3 or parts[0] != _TAG:
+            continue  # the example's own prints
+        try:
+            fields = json.loads(parts[2])
+        except ValueError:
+            continue  # a line cut short by a kill
+        if not errors:
+            try:
+                on_report(parts[1], fields)
+            except Exception as e:  # re-raised by the caller, after the wait
+                errors.append(e)
+    stream.close()
+
+
+def _kill_session(proc: subprocess.Popen) -> None:
+    """SIGKILL to the subprocess' session (it leads it): the example and any compiler
+    it started; nothing when all have ended."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
+
+
+def _run_child(command: list[str], workdir: str, env: dict[str, str], timeout: float | None,
+               on_report: Callable[[str, dict], None]) -> tuple[int | None, str]:
+    """Run the subprocess in a session of its own, handing its report lines to on_report
+    as they come. Returns its exit code (None when it ran out of time) and its stderr.
+    However the wait ends (done, timed out, Ctrl-C in the caller), the session is
+    killed: no PySPH process outlives the call."""
+    errors: list[Exception] = []
+    with open(Path(workdir) / "stderr.txt", "w+", encoding="utf-8", errors="replace") as err:
+        proc = subprocess.Popen(command, cwd=workdir, env=env, stdout=subprocess.PIPE,
+                                stderr=err, text=True, start_new_session=True)
+        reader = threading.Thread(target=_read_reports, args=(proc.stdout, on_report, errors),
+                                  daemon=True)
+        reader.start()
+        code = None
+        try:
+            code = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            pass
+        finally:
+            _kill_session(proc)
+            reader.join()
+        err.seek(0)
+        stderr = err.read()
+    if errors:
+        raise errors[0]
+    return code, stderr
+
+
+def _where(start: dict, progress: dict) -> str:
+    """How far a run that did not finish got: ' at 40 % of its simulated time'."""
+    if not start:
+        return " during its set-up"
+    if not progress or start["t_end"] <= 0:
+        return " before its first output"
+    return f" at {100 * progress['t'] / start['t_end']:.0f} % of its simulated time"
+
+
 def run_case(case: str, scheme: str, n: int, threads: int = 2,
              timeout: float | None = None, *, end_time: float | None = None,
-             cache_dir: str | Path | None = None) -> dict:
+             cache_dir: str | Path | None = None,
+             progress: Callable[[float, float], None] | None = None) -> dict:
     """Run a PySPH example on one of our validation cases and score it as we do.
 
     Parameters
@@ -543,17 +678,23 @@ def run_case(case: str, scheme: str, n: int, threads: int = 2,
     cache_dir : path, optional
         HOME of the subprocess, where PySPH keeps its compiled kernels
         (``~/.pysph``); default :data:`CACHE_DIR`.
+    progress : callable, optional
+        Called at each output time of the run with the fraction of its simulated
+        time done and the wall-clock seconds since it was started (from a thread
+        that reads the subprocess' output).
 
     Returns
     -------
     dict
-        ``peer`` ("pysph"), ``version``, ``case``, ``scheme``, ``n``,
+        ``peer`` ("pysph"), ``version``, ``case``, ``scheme``, ``n``, ``threads``,
         ``particles`` (fluid), ``steps``, ``wall_s`` (the time steps alone, timed
         in the subprocess, output writing excluded), ``cpu_s`` (CPU time of all
         threads over the same), ``setup_s`` (set-up and compilation), ``error``
         (our case's error; nan on failure), ``metrics`` (our case's further
-        errors), ``failure`` ("" or why the run or its scoring failed) and
-        ``note`` (what ran, and how it differs from ours).
+        errors), ``failure`` ("" or why the run or its scoring failed, e.g.
+        "timed out after 600 s at 40 % of its simulated time") and ``note`` (what
+        ran, and how it differs from ours). A run that did not finish keeps the
+        particles, steps and wall time it reported.
 
     Raises
     ------
@@ -568,43 +709,56 @@ def run_case(case: str, scheme: str, n: int, threads: int = 2,
     if end_time is not None and (case != "cavity" or end_time < 5.0):
         raise ValueError("end_time is for the cavity only, and at least 5 s")
     result = {"peer": "pysph", "version": "", "case": case, "scheme": scheme, "n": n,
-              "particles": 0, "steps": 0, "wall_s": math.nan, "cpu_s": math.nan,
-              "setup_s": math.nan, "error": math.nan, "metrics": {}, "failure": "",
-              "note": ""}
-    if importlib.util.find_spec("pysph") is None:
-        result["failure"] = "pysph is not installed (pip install pysph==1.0b2)"
+              "threads": threads, "particles": 0, "steps": 0, "wall_s": math.nan,
+              "cpu_s": math.nan, "setup_s": math.nan, "error": math.nan, "metrics": {},
+              "failure": "", "note": ""}
+    if importlib.util.find_spec(PEER_MODULE) is None:
+        result["failure"] = f"{PEER_MODULE} is not installed (pip install {REQUIREMENT})"
         return result
+    from sphfluid.bench import exit_reason
+
     cache = Path(CACHE_DIR if cache_dir is None else cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
+    reports: dict[str, dict] = {}
+    launched = time.perf_counter()
+
+    def on_report(kind: str, fields: dict) -> None:
+        reports[kind] = fields
+        start = reports.get("start")
+        if kind == "progress" and progress is not None and start and start["t_end"] > 0:
+            progress(min(1.0, fields["t"] / start["t_end"]), time.perf_counter() - launched)
+
     with tempfile.TemporaryDirectory(prefix=f"sphfluid-pysph-{case}-") as workdir:
         config = Path(workdir) / "config.json"
         config.write_text(json.dumps(_child_config(case, scheme, n, workdir, end_time)),
                           encoding="utf-8")
-        proc = subprocess.Popen(
-            [sys.executable, str(Path(__file__).resolve()), "--child", str(config)],
-            cwd=workdir, env=_child_env(threads, cache), stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, start_new_session=True)
-        try:
-            stdout, stderr = proc.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)  # its own session: PySPH and its compiler
-            proc.communicate()
-            result["failure"] = f"timed out after {timeout:g} s"
+        code, stderr = _run_child(_child_command(config), workdir,
+                                  _child_env(threads, cache), timeout, on_report)
+        start, last, done = (reports.get(k) for k in ("start", "progress", "done"))
+        start, last = start or {}, last or {}
+        result.update({k: start[k] for k in ("version", "particles", "setup_s") if k in start})
+        result.update({k: last[k] for k in ("steps", "wall_s") if k in last})
+        if code is None:
+            result["failure"] = f"timed out after {timeout:g} s{_where(start, last)}"
             return result
-        reports = [line[len(_TAG):] for line in stdout.splitlines() if line.startswith(_TAG)]
-        if proc.returncode != 0 or not reports:
-            result["failure"] = _exit_reason(proc.returncode, stderr)
+        if code != 0 or done is None:
+            how = exit_reason(code, stderr) if code != 0 else "ended without its report"
+            result["failure"] = f"{how}{_where(start, last)}"
             return result
-        report = json.loads(reports[-1])
-        result.update({k: report[k] for k in ("version", "particles", "steps", "wall_s",
-                                              "cpu_s", "setup_s")})
+        result.update({k: done[k] for k in ("version", "particles", "steps", "wall_s",
+                                            "cpu_s", "setup_s")})
         try:
-            result["note"] = _note(case, scheme, n, report)
-            snapshots = read_snapshots(workdir, report["times"])
-            result.update(score(case, snapshots, n, report["params"]))
+            result["note"] = _note(case, scheme, n, done)
+            snapshots = read_snapshots(workdir, done["times"])
+            result.update(score(case, snapshots, n, done["params"]))
         except Exception as e:  # a run that cannot be scored is a failure, not a crash
             result["failure"] = f"scoring failed: {type(e).__name__}: {e}"
     return result
+
+
+def _child_command(config: Path) -> list[str]:
+    """This file run as the subprocess on a configuration file."""
+    return [sys.executable, str(Path(__file__).resolve()), "--child", str(config)]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -628,8 +782,13 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.case is None or args.scheme is None or args.n is None:
         parser.error("--case, --scheme and --n are required (or --list)")
+
+    def progress(done: float, seconds: float) -> None:
+        print(f"{100 * done:3.0f} % of the simulated time after {seconds:.0f} s",
+              file=sys.stderr, flush=True)
+
     print(json.dumps(run_case(args.case, args.scheme, args.n, args.threads, args.timeout,
-                              end_time=args.end_time)))
+                              end_time=args.end_time, progress=progress)))
     return 0
 
 

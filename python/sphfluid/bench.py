@@ -12,6 +12,7 @@ import importlib.util
 import math
 import os
 import platform
+import signal
 import statistics
 import sys
 import tempfile
@@ -79,6 +80,20 @@ def load_benchmark(benchmarks: Path, relative: str) -> ModuleType:
         del sys.modules[name]
         raise
     return module
+
+
+def exit_reason(returncode: int, stderr: str) -> str:
+    """How a peer's subprocess ended, for a report: 'killed by SIGSEGV' or 'exit code
+    1', and the last line of its stderr if any (the peer drivers of benchmarks/)."""
+    if returncode < 0:
+        try:
+            how = f"killed by {signal.Signals(-returncode).name}"
+        except ValueError:
+            how = f"killed by signal {-returncode}"
+    else:
+        how = f"exit code {returncode}"
+    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
+    return f"{how}: {lines[-1][:300]}" if lines else how
 
 
 def dam_break_scene(n_target: int, method: str = "seed") -> dict:
