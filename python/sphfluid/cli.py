@@ -133,10 +133,15 @@ def _add_bench(sub) -> None:
     b.add_argument("--peers", action="store_true",
                    help="--suite: also run PySPH and SPlisHSPlasH on the same dam break "
                         "when installed (docs/peers.md)")
-    b.add_argument("--benchmarks-dir", type=Path, metavar="DIR",
-                   help="the repository's benchmarks/ folder: the peer drivers (--peers) and "
-                        "the reference loop (default: $SPHFLUID_BENCHMARKS, else the one "
-                        "beside a source checkout's package)")
+    _add_benchmarks_dir(b, "the peer drivers (--peers) and the reference loop")
+
+
+def _add_benchmarks_dir(p, holding: str) -> None:
+    """--benchmarks-dir: where a source checkout's benchmarks/ folder is (bench.benchmarks_dir)."""
+    p.add_argument("--benchmarks-dir", type=Path, metavar="DIR",
+                   help=f"the repository's benchmarks/ folder: {holding} (default: "
+                        "$SPHFLUID_BENCHMARKS, else the one beside a source checkout's "
+                        "package)")
 
 
 def _add_stress(sub) -> None:
@@ -168,7 +173,8 @@ def _add_validate(sub) -> None:
                                    "several resolutions for every method; print a table per "
                                    "case with the error and the wall time, plot error against "
                                    "run time. --quick checks each error against its bound "
-                                   "(exit 1 when one is over).")
+                                   "(exit 1 when one is over). --peers adds PySPH's schemes "
+                                   "on the same cases.")
     vmode = v.add_mutually_exclusive_group()
     vmode.add_argument("--quick", action="store_true",
                        help="small resolutions, checked against bounds (default, seconds)")
@@ -183,6 +189,16 @@ def _add_validate(sub) -> None:
     v.add_argument("--out", type=Path, default=Path("docs/validation"),
                    help="folder for the plots (default docs/validation)")
     v.add_argument("--write", type=Path, help="write the tables into this Markdown file")
+    v.add_argument("--peers", action="store_true",
+                   help="also run PySPH's schemes on the cases it has examples of (Taylor-Green, "
+                        "Poiseuille, hydrostatic tank, cavity) at the same resolutions, as rows "
+                        "of the same tables and points of the same plots, and say whether a "
+                        "point of ours beats each one's best (needs PySPH and a source "
+                        "checkout; docs/peers.md; minutes with --quick, hours with --full)")
+    v.add_argument("--peer-timeout", type=_positive, metavar="S",
+                   help="--peers: wall-clock seconds allowed per PySPH run, its compilation "
+                        "included; a run that takes longer is a row saying so (default 3600)")
+    _add_benchmarks_dir(v, "the PySPH driver (--peers)")
 
 
 def main(argv: list[str] | None = None) -> int:

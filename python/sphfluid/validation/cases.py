@@ -46,6 +46,9 @@ class Result:
     metrics: dict = field(default_factory=dict)  # further errors, by name
     curves: dict = field(default_factory=dict)  # for the profile plots
     failure: str = ""  # the guard's message when the run blew up
+    peer: str = ""  # another code's run ("pysph"; `method` is then its label): "" for ours
+    note: str = ""  # a peer's set-up and how it differs from ours
+    cpu_share: float = math.nan  # a peer's CPU time / (threads x wall): < 1, cores taken
 
     @property
     def ok(self) -> bool:

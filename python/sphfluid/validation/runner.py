@@ -1,6 +1,8 @@
 """``sphfluid validate``: run the cases at several resolutions for every method,
 write the tables (VALIDATION.md) and plots, and in ``--quick`` mode check each
-error against the bound that documents today's accuracy."""
+error against the bound that documents today's accuracy. With ``--peers``, PySPH's
+schemes run on the same cases in the same command, as rows of the same tables and
+points of the same plots (peers.py)."""
 from __future__ import annotations
 
 import datetime
@@ -14,6 +16,7 @@ import numpy as np
 
 from ..bench import machine
 from .cases import CASES, VARIANTS, Result
+from .peers import BUSY_SHARE, busy_lines, verdict
 
 # Quick-mode bounds on each run's primary error, per (case, method, n): today's
 # measured quick-mode error (in the comment) times 1.4, rounded up. The headroom
@@ -63,8 +66,9 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
 QUICK_BOUNDS.update({(c, "seed-float", n): b for (c, m, n), b in list(QUICK_BOUNDS.items())
                      if m == "seed" and CASES[c].applies("seed-float")})
 
-# one colour per variant in every plot
+# one colour per variant in every plot; the peers' schemes take the next ones, in order
 COLOURS = {"seed": "C0", "wcsph": "C1", "seed-float": "C2"}
+PEER_COLOURS = ("C3", "C4", "C5", "C6", "C7", "C8", "C9")
 
 
 def convergence_order(results: list[Result]) -> float:
@@ -119,6 +123,22 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|")  # a pipe inside a Markdown table cell
 
 
+def _outcome(r: Result) -> str:
+    """The error column: the error, or why there is none."""
+    if r.ok:
+        return _fmt(r.error)
+    if "[check:" in r.failure:
+        return "unstable"
+    if r.peer:
+        return "timed out" if r.failure.startswith("timed out") else "failed"
+    return "fluid lost" if r.failure else "not measured"
+
+
+def peer_labels(results: list[Result]) -> list[str]:
+    """The peers' schemes among the results (their `method`), in order of appearance."""
+    return list(dict.fromkeys(r.method for r in results if r.peer))
+
+
 def case_table(results: list[Result], *, bounds: bool = False) -> str:
     """A Markdown table of the runs; with bounds, the quick-mode bound of each."""
     metric_names = []
@@ -129,21 +149,35 @@ def case_table(results: list[Result], *, bounds: bool = False) -> str:
     rows = [head, "|---|---:|---:|---:|---:|---:|---:|---:|" + "---:|" * (
         len(metric_names) + bounds)]
     for r in results:
-        error = (_fmt(r.error) if r.ok else "unstable" if "[check:" in r.failure
-                 else "fluid lost" if r.failure else "not measured")
         bound = QUICK_BOUNDS.get((r.case, r.method, r.n))
+        no_bound = "— | " if r.peer else "none | "
         rows.append(
-            f"| {r.method} | {r.n} | {r.spacing:.3g} | {r.particles:,} | {r.steps:,} | "
-            f"{r.wall:.2f} | {_fmt(r.particle_steps_per_s)} | {error} | "
-            + ((f"{bound:g} | " if bound is not None else "none | ") if bounds else "")
+            f"| {_cell(r.method)} | {r.n} | {r.spacing:.3g} | {r.particles:,} | {r.steps:,} | "
+            f"{r.wall:.2f} | {_fmt(r.particle_steps_per_s)} | {_outcome(r)} | "
+            + ((f"{bound:g} | " if bound is not None else no_bound) if bounds else "")
             + "".join(f"{_fmt(r.metrics[k]) if k in r.metrics else ''} | "
                       for k in metric_names))
     return "\n".join(rows)
 
 
+def error_time_series(results: list[Result]) -> list[tuple[str, str, str, list[Result]]]:
+    """The lines of the error-against-wall-time plot: (label, style, colour, its
+    completed runs) for each of our methods, then each peer scheme (dashed)."""
+    styles = [(m, "o-", COLOURS[m]) for m in VARIANTS]
+    styles += [(label, "s--", PEER_COLOURS[k % len(PEER_COLOURS)])
+               for k, label in enumerate(peer_labels(results))]
+    series = []
+    for method, style, colour in styles:
+        ok = [r for r in results if r.method == method and r.ok and r.error > 0]
+        if ok:
+            series.append((method, style, colour, ok))
+    return series
+
+
 def plot_case(name: str, results: list[Result], path: Path) -> bool:
-    """Error against wall time (log-log, a line per method) beside the case's
-    profile against its reference; False when matplotlib is missing."""
+    """Error against wall time (log-log, a line per method and per peer scheme,
+    dashed) beside the case's profile against its reference (ours); False when
+    matplotlib is missing."""
     try:
         import matplotlib
 
@@ -153,16 +187,19 @@ def plot_case(name: str, results: list[Result], path: Path) -> bool:
         return False
     case = CASES[name]
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
-    for method in VARIANTS:
-        ok = [r for r in results if r.method == method and r.ok and r.error > 0]
-        if not ok:
-            continue
-        left.loglog([r.wall for r in ok], [r.error for r in ok], "o-", label=method,
-                    color=COLOURS[method])
+    for method, style, colour, ok in error_time_series(results):
+        left.loglog([r.wall for r in ok], [r.error for r in ok], style, label=method,
+                    color=colour)
+        busy = [r for r in ok if r.cpu_share < BUSY_SHARE]  # hollow: timed on a busy machine
+        if busy:
+            left.loglog([r.wall for r in busy], [r.error for r in busy], style[0], color=colour,
+                        markerfacecolor="white", zorder=3)
         for r in ok:
             left.annotate(f"n={r.n}", (r.wall, r.error), textcoords="offset points",
-                          xytext=(4, 4), fontsize=8, color=COLOURS[method])
-    left.set_xlabel("wall time, s (stepping)")
+                          xytext=(4, 4), fontsize=8, color=colour)
+    left.set_xlabel("wall time, s (stepping)" + (
+        "; hollow: other jobs held the cores" if any(r.cpu_share < BUSY_SHARE for r in results)
+        else ""))
     left.set_ylabel(case.error_name)
     left.set_title(f"{case.title}: error against run time", fontsize=10)
     left.grid(True, which="both", alpha=0.3)
@@ -174,7 +211,7 @@ def plot_case(name: str, results: list[Result], path: Path) -> bool:
         axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     if left.lines:
-        left.legend()
+        left.legend(fontsize=8)
     _profile(name, results, right)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -249,7 +286,8 @@ def _profile(name: str, results: list[Result], ax) -> None:
         _profile_cavity(best, ax)
     elif name == "oscillation":
         _profile_oscillation(best, ax)
-    ax.set_title("simulated against the reference (finest completed run)", fontsize=10)
+    who = "ours" if any(r.peer for r in results) else "simulated"  # the peers' are not drawn
+    ax.set_title(f"{who} against the reference (finest completed run)", fontsize=10)
     ax.grid(True, alpha=0.3)
     if ax.lines or ax.collections:
         ax.legend(fontsize=8)
@@ -279,12 +317,37 @@ def _profile_cavity(best: dict, ax) -> None:
     ax.set_ylabel("y / L  (and v / U)")
 
 
+def _peer_header(results: list[Result], peer_threads: int | None) -> str:
+    if not any(r.peer for r in results):
+        return ""
+    return (f" Rows named PySPH are PySPH's own examples set up for our case and run by "
+            f"this command (benchmarks/peers/pysph_cases.py, docs/peers.md), each in a "
+            f"process of its own on {peer_threads} OpenMP thread(s), scored with our errors; "
+            "their wall time is their stepping alone too (output writing and the "
+            "compilation of their kernels excluded); particles are the fluid's, as ours "
+            "(their wall particles are in the notes).")
+
+
+def _peer_notes(mine: list[Result]) -> list[str]:
+    """Each peer scheme's set-up, from its finest run that reported one."""
+    notes = []
+    for label in peer_labels(mine):
+        noted = [r for r in mine if r.method == label and r.note]
+        if noted:
+            r = max(noted, key=lambda r: r.n)
+            notes.append(f"- {label}, n = {r.n}: {r.note}")
+    return [*notes, ""] if notes else []
+
+
 def report(results: list[Result], names: list[str], mode: str, command: str, seconds: float,
-           plot_dir: Path, relative_to: Path) -> str:
+           plot_dir: Path, relative_to: Path, *, peer_cases: list[str] | None = None,
+           peer_threads: int | None = None) -> str:
+    """The Markdown report; `peer_cases`, when peers were asked for, the cases PySPH
+    has (the others say it has none)."""
     header = (f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
               f"Command: `{command}` ({seconds:.0f} s in all). Wall times are the stepping "
               "alone, on the default thread count; particle-steps/s = particles x steps / "
-              "wall s.")
+              "wall s." + _peer_header(results, peer_threads))
     parts = [header, ""]
     for name in names:
         case = CASES[name]
@@ -293,7 +356,7 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
                   f"Error: {case.error_name}.", "",
                   case_table(mine, bounds=mode == "quick"), ""]
         orders = []
-        for method in VARIANTS:
+        for method in [*VARIANTS, *peer_labels(mine)]:
             p = convergence_order([r for r in mine if r.method == method])
             if math.isfinite(p):
                 orders.append(f"{method} {p:.2f}")
@@ -306,6 +369,11 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
                 parts += [f"- {r.method}, n = {r.n}: {how}: `{r.failure}`"]
         if any(r.failure for r in mine):
             parts.append("")
+        if peer_cases is not None and name not in peer_cases:
+            parts += ["PySPH has no example of this case: no peer rows.", ""]
+        elif any(r.peer for r in mine):
+            busy = busy_lines(mine)
+            parts += [*verdict(mine), "", *_peer_notes(mine), *busy, *([""] if busy else [])]
         png = plot_dir / f"validation_{name}.png"
         if plot_case(name, mine, png):
             parts += [f"![{name}]({os.path.relpath(png, relative_to)})", ""]
@@ -320,14 +388,37 @@ def main(args) -> int:
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
+    if not args.peers and (args.peer_timeout is not None or args.benchmarks_dir is not None):
+        log("error: --peer-timeout and --benchmarks-dir go with --peers")
+        return 2
+    peer_cases = peer_threads = None
+    if args.peers:  # before our runs: say at once when PySPH cannot run here
+        from . import peers
+
+        try:
+            driver, version = peers.load(args.benchmarks_dir)
+        except peers.PeersUnavailableError as e:
+            log(f"error: --peers: {e}")
+            return 2
+        peer_cases = [n for n in names if driver.schemes(n)]
+        peer_threads = args.threads or os.cpu_count() or 1  # ours: all cores by default
+        timeout = peers.DEFAULT_TIMEOUT if args.peer_timeout is None else args.peer_timeout
+        log(f"peers: PySPH {version} on {', '.join(peer_cases) or 'none of these cases'}")
+
     start = time.perf_counter()
     results = run_suite(names, mode, methods, args.threads, log)
+    if args.peers:
+        results += peers.run_peers(driver, version, names, mode, peer_threads, timeout, log)
     seconds = time.perf_counter() - start
     command = " ".join(["sphfluid validate", f"--{mode}"]
                        + [f"--case {n}" for n in (args.case or [])]
-                       + ([f"--method {args.method}"] if args.method else []))
+                       + ([f"--method {args.method}"] if args.method else [])
+                       + (["--peers"] if args.peers else [])
+                       + ([f"--peer-timeout {args.peer_timeout:g}"]
+                          if args.peer_timeout is not None else []))
     relative_to = args.write.parent if args.write else Path(".")
-    text = report(results, names, mode, command, seconds, args.out, relative_to)
+    text = report(results, names, mode, command, seconds, args.out, relative_to,
+                  peer_cases=peer_cases, peer_threads=peer_threads)
     print(text)
     if args.write:
         from ..bench import write_section
