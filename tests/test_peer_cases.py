@@ -148,9 +148,13 @@ def test_what_validate_peers_runs():
     assert cases.schemes("taylor_green") == ("edac", "tvf", "wcsph")
     assert cases.schemes("hydrostatic") == ("adami", "monaghan_kajtar", "dynamic")
     assert cases.schemes("dam_break") == ()
-    for case in {c for c, _ in cases.PAIRS}:
-        for mode in ("quick", "full"):
-            assert cases.resolutions(case, mode) == CASES[case].resolutions[mode]
+    for case in {c for c, _ in cases.PAIRS}:  # ours, the full mode's finest capped
+        assert cases.resolutions(case, "quick") == CASES[case].resolutions["quick"]
+        top = cases.FULL_MAX_N.get(case, math.inf)
+        assert cases.resolutions(case, "full") == tuple(
+            n for n in CASES[case].resolutions["full"] if n <= top)
+    assert cases.resolutions("cavity", "full") == (25, 50)
+    assert cases.resolutions("taylor_green", "full") == (25, 50, 100)
     with pytest.raises(ValueError, match="no PySPH peer"):
         cases.resolutions("droplet", "quick")
     assert cases.label("edac", "1.0b2") == "PySPH 1.0b2 EDAC"
