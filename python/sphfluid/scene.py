@@ -398,16 +398,13 @@ class _Validator:
         domain = self.domain(d)
         solver = self.solver(d)
         fluid = self.fluid(d, solver.method)
-        if solver.density is None:
-            sliding = any(isinstance(w, dict) and isinstance(w.get("velocity"), list)
-                          and any(w["velocity"]) for w in
-                          (d.get("walls") if isinstance(d.get("walls"), list) else []))
-            solver = solver._replace(density=default_density(solver.method, fluid.sigma,
-                                                             sliding))
+        walls = self.walls(d.get("walls", []))
+        if solver.density is None:  # a sliding wall needs the continuity density
+            solver = solver._replace(density=default_density(
+                solver.method, fluid.sigma, bool(self.wall_velocities())))
         res = self.resolution(d, continuity=solver.method == "wcsph"
                               and solver.density == "continuity")
         regions = self.regions(d)
-        walls = self.walls(d.get("walls", []))
         duration = self.number_at(d, "duration", "", low=0)
 
         self.check_cell_grid(domain, res)
