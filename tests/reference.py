@@ -198,11 +198,20 @@ def continuity_alpha(alpha, eta, rho0, hs, c0):
     return max(0.0, alpha - 8.0 * eta / (rho0 * hs * c0))
 
 
+def gradient_normalisation(h, dx, vol):
+    """W29's S: sum over the square lattice's points y of -V F(|y|) y_2^2, with
+    grad W = F(r) r (the continuum's value is 1)."""
+    k = np.arange(-int(np.ceil(h / dx)), int(np.ceil(h / dx)) + 1) * dx
+    y = np.stack(np.meshgrid(k, k), -1).reshape(-1, 2)
+    return float(-(vol * wendland_grad(y, h)[:, 1] * y[:, 1]).sum())
+
+
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
-                 period=None, background_pressure=0.0, lap_sums=None):
+                 period=None, background_pressure=0.0, lap_sums=None, spacing=None):
     """Pressure and acceleration of wcsph with the continuity density and no
-    walls (W19 with W4-W5, W24): Tait without the clamp, the sum form
-    (p_i + p_j)/(rho_i rho_j) of the pressure term, and the viscous term
+    walls (W19 with W4-W5, W24, W29): Tait without the clamp, the sum form
+    (p_i + p_j)/(rho_i rho_j) of the pressure term divided by the lattice's
+    gradient normalisation S (spacing sqrt(m / rho0) by default), the viscous term
     2 m eta/(rho_i rho_j) F_ij v_ij (c_i + c_j)/2 with c = -2 / lap_sums
     (laplacian_sums of these positions and densities by default)."""
     r = separations(x, period)
@@ -217,7 +226,9 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     rho_bar = 0.5 * (rho[:, None] + rho[None, :])
     alpha = continuity_alpha(alpha, eta, rho0, hs, c0)
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
-    coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) + pi_ij
+    dx = np.sqrt(m / rho0) if spacing is None else spacing
+    S = gradient_normalisation(h, dx, m / rho0)
+    coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) / S + pi_ij
     a = -(m * coef[..., None] * gw).sum(1)
     if eta > 0:
         if lap_sums is None:

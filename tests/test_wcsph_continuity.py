@@ -232,7 +232,7 @@ def test_floor_terms_equal_the_rows_they_stand_for():
     brute force with the floor's static rows summed point by point, at the
     densities the core started from; then one step's densities, whose rate
     includes the floor's W20 share."""
-    from reference import continuity_alpha, wendland, wendland_grad
+    from reference import continuity_alpha, gradient_normalisation, wendland, wendland_grad
     rng = np.random.default_rng(6)
     n, dx, h, m, c0 = 300, 0.02, 0.06, 0.4, 15.0
     x = np.c_[rng.uniform(0.2, 0.8, n), rng.uniform(0.004, 0.3, n)]
@@ -254,7 +254,9 @@ def test_floor_terms_equal_the_rows_they_stand_for():
         rows = wall_rows(x[i], x[i, 1], dx, h)
         rl = np.hypot(*rows.T)
         lap[i] += (m / RHO0 * -140.0 / (np.pi * h**4) * (1 - rl / h) ** 3 * rl**2).sum()
-    pr, a = delta_forces(x, v, rho, **kw, lap_sums=lap)
+    pr, a = delta_forces(x, v, rho, **kw, lap_sums=lap, spacing=dx)
+    S = gradient_normalisation(h, dx, m / RHO0)  # W29
+    assert 0.9 < S < 0.999
     hs, eps2 = 0.5 * h, 0.01 * (0.5 * h) ** 2
     alpha = continuity_alpha(0.2, 0.3, RHO0, hs, c0)  # W28
     assert 0 < alpha < 0.2
@@ -267,8 +269,9 @@ def test_floor_terms_equal_the_rows_they_stand_for():
         # W8 with the particle's pressure (at least 0), and W20's extrapolation
         # of it along g: p_j - p_i = rho_i g . (x_j - x_i) = -rho_i g . r_ij;
         # the rows at the particle's density, of mass m rho_i / rho0: the pair's
-        # m_j (p_i + p_j) / (rho_i rho_j) = m (p_i + p_j) / (rho0 rho_i)
-        coef = 2 * max(pr[i], 0.0) / (RHO0 * rho[i]) - (rows @ np.asarray(g)) / RHO0
+        # m_j (p_i + p_j) / (rho_i rho_j) = m (p_i + p_j) / (rho0 rho_i); both
+        # divided by W29's S
+        coef = (2 * max(pr[i], 0.0) / (RHO0 * rho[i]) - (rows @ np.asarray(g)) / RHO0) / S
         a[i] -= m * (coef[:, None] * gw).sum(0)
         # W9's artificial viscosity: one particle at rest at the foot of the
         # perpendicular

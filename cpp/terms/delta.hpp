@@ -129,6 +129,25 @@ inline Real artificial_alpha(Real alpha, Real eta, Real rho0, Real hs, Real c0) 
   return top_up > 0 ? top_up : Real(0);
 }
 
+// W29: the lattice's gradient normalisation. On the square lattice of spacing
+// dx the pair sum of a linear field's gradient, sum_j V_j f_j grad W_ij, comes
+// out S times the gradient, S = sum_j V (-F(r_j)) y_j^2 over the lattice's
+// points (the continuum's 1; 0.9974 with the Wendland kernel at h = 3 dx,
+// 0.967 at 2.5 dx): the pressure's pair sums (W19 with the walls' W8 and
+// W20) are divided by it, so that a resting column's pressure gradient is
+// rho g on the lattice. A constant on every pair: momentum is conserved as it
+// is. vol = m / rho0.
+inline Real gradient_normalisation(const Wendland& W, Real dx, Real vol) {
+  const int reach = static_cast<int>(std::ceil(W.h / dx));
+  Real sum = 0;
+  for (int k = -reach; k <= reach; ++k)
+    for (int i = -reach; i <= reach; ++i) {
+      const Real r = dx * std::hypot(Real(i), Real(k));
+      if (r > 0 && r < W.h) sum -= vol * W.gradient_factor(r) * (k * dx) * (k * dx);
+    }
+  return sum;
+}
+
 // W19: the pressure coefficient of the pair force in the sum form,
 // (p_i + p_j) / (rho_i rho_j), which takes W4's p_i/rho_i^2 + p_j/rho_j^2
 // in PairForce (terms/wcsph.hpp); ir = 1 / rho.

@@ -171,7 +171,7 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "continuity"  # wcsph: "continuity" (W17-W28) or "summation" (W2)
+    density: str = "continuity"  # wcsph: "continuity" (W17-W29) or "summation" (W2)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y

@@ -37,6 +37,7 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
   inv_wdx_ = 1 / kernel_.value(dx);
   open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
+  inv_s_ = 1 / delta::gradient_normalisation(kernel_, dx, P_.mass / P_.rho0);  // W29
   alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
   // the rows' share of the shifting sum (W21), with the fluid's pair weight
   walls_.build_weighted_line(
@@ -301,7 +302,7 @@ template <unsigned F, class L>
 delta::ForcePairs<L, (F & kViscosity) != 0> DeltaWcsphMethod::force_pairs() const {
   const ParticleSet& ps = ctx_.ps;
   return {ps.rho.data(), ps.p.data(), inv_rho_.data(), lap_.data(), {ps.v.data()}, kernel_,
-          constants<L>()};
+          constants<L>(), simd::splat<L>(inv_s_)};
 }
 
 // The force pass by cell clusters: with shifting, its three sums at once.
@@ -429,7 +430,7 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
   // W8 and W9's artificial viscosity, the rows at the particle's density
   // (W20); the physical one by W25's rows
   wcsph::add_wall_force<false>(walls_, kernel_, constants<Real>(), 1 / ir[i], ghosts,
-                               p[i] * ir[i] * ir[i], ir[i], v[i], f);
+                               inv_s_ * p[i] * ir[i] * ir[i], ir[i], v[i], f);
   if constexpr ((F & kViscosity) != 0) {
     const Vec2 xi = ps.x[i];
     const WallSet& ws = ctx_.walls;
@@ -438,7 +439,7 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
     };
     delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i], v[i], wall_velocity, f);
   }
-  delta::add_wall_hydrostatic(walls_, ghosts, P_.gravity, f);
+  delta::add_wall_hydrostatic(walls_, ghosts, inv_s_ * P_.gravity, f);  // W29's 1 / S
 }
 
 // W21: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),

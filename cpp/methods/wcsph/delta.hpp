@@ -110,6 +110,7 @@ class DeltaWcsphMethod final : public SphMethod {
   std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
   std::unique_ptr<Field<Vec2>> shift_;  // the next drift's shift, m (with shifting only)
   Real open_sum_;             // delta::open_surface_sum of the lattice
+  Real inv_s_ = 1;  // 1 / the lattice's gradient normalisation (W29)
   bool shape_known_ = false;  // shift_confined: whether the fluid's shape is known,
   bool confined_ = false;     // and whether it has no free surface
   Real shift_per_dt_ = 0;         // 1 / dt of a step whose drift shifted, else 0

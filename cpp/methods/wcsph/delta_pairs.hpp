@@ -56,7 +56,8 @@ struct RatePairs {
   }
 };
 
-// The pair force over rho, p, 1 / rho (ir) and the normalisation c (lap):
+// The pair force over rho, p, 1 / rho (ir) and the normalisation c (lap),
+// the pressure's part divided by the lattice's S (times inv_s, W29):
 // i gets f, j gets -f.
 template <class L, bool Viscosity>
 struct ForcePairs {
@@ -67,6 +68,7 @@ struct ForcePairs {
   InterleavedVelocity v;
   Wendland W;
   wcsph::PairConstants<L> c;
+  L inv_s;
   struct Data {
     L rho, p, ir, lap, vx, vy;
   };
@@ -82,7 +84,7 @@ struct ForcePairs {
                            L& fiy, L& fjx, L& fjy) const {
     const L vijx = simd::splat<L>(v.x(i)) - d.vx, vijy = simd::splat<L>(v.y(i)) - d.vy;
     const L ir_i = simd::splat<L>(ir[i]);
-    const L coef = pressure_sum(simd::splat<L>(p[i]), d.p, ir_i, d.ir);
+    const L coef = inv_s * pressure_sum(simd::splat<L>(p[i]), d.p, ir_i, d.ir);
     const L lap_ij =
         Viscosity ? simd::splat<L>(Real(0.5)) * (simd::splat<L>(lap[i]) + d.lap) : simd::zero<L>();
     L fx, fy;
