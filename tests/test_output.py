@@ -200,3 +200,134 @@ def test_pvd_comment_survives_a_double_dash_in_the_metadata(tmp_path):
     assert output.read_metadata(tmp_path / "frames.pvd")["scene_name"] == "tank -- with a lid --"
     assert output.read_metadata(tmp_path / "frame_00000.vtu")["scene_name"] == scene["name"]
 
+
+# -- sphfluid run --out DIR [--format vtk]
+
+FRAME_TIMES = [0.0, 0.005, 0.01, 0.015, 0.02]  # --duration 0.02 --every 0.005
+
+
+def run_cli(tmp_path, *extra, scene=TERRAIN, out="out"):
+    from sphfluid.cli import main
+
+    return main(["run", str(scene), "--duration", "0.02", "--every", "0.005", "--threads", "1",
+                 "--out", str(tmp_path / out), "--quiet", *extra])
+
+
+@pytest.fixture(scope="module")
+def vtk_run(tmp_path_factory):
+    """One short terrain run with --format vtk, shared by the tests that read it."""
+    tmp = tmp_path_factory.mktemp("vtk_run")
+    assert run_cli(tmp, "--format", "vtk") == 0
+    return tmp / "out"
+
+
+def test_vtk_frames_hold_the_simulation_state_at_the_frame_times(vtk_run):
+    sim = Simulation(load_scene(TERRAIN), threads=1)  # replayed: fixed steps, one thread
+    frames = sorted(vtk_run.glob("frame_*.vtu"))
+    assert [f.name for f in frames] == [f"frame_{k:05d}.vtu" for k in range(len(FRAME_TIMES))]
+    for path, t in zip(frames, FRAME_TIMES):
+        sim.advance_to(t)
+        d = output.read_vtu(path)
+        assert d["field_data"]["TimeValue"][0] == sim.time
+        assert d["points"].shape == (sim.n_particles, 3)
+        assert np.array_equal(d["points"][:, :2], sim.positions) and not d["points"][:, 2].any()
+        pd = d["point_data"]
+        for name in ("velocities", "accelerations"):
+            assert pd[name].shape == (sim.n_particles, 3)  # vectors to ParaView
+            assert np.array_equal(pd[name][:, :2], getattr(sim, name)) and not pd[name][:, 2].any()
+        for name in ("densities", "pressures", "ids"):
+            assert np.array_equal(pd[name], getattr(sim, name)), name
+        assert np.array_equal(d["types"], np.ones(sim.n_particles))  # VTK_VERTEX
+        assert np.array_equal(d["offsets"], np.arange(1, sim.n_particles + 1))
+    assert sim.step_count == 100  # 0.02 s at dt 0.0002: the frames were not all at t = 0
+
+
+def test_pvd_lists_every_frame_in_order_with_its_time(vtk_run):
+    datasets = pvd_datasets(vtk_run / "frames.pvd")
+    particles = [d for d in datasets if d[1] == "0"]
+    walls = [d for d in datasets if d[1] == "1"]
+    assert [d[3] for d in particles] == [f"frame_{k:05d}.vtu" for k in range(len(FRAME_TIMES))]
+    times = [d[0] for d in particles]
+    assert times == sorted(times) and times == pytest.approx(FRAME_TIMES, abs=1e-12)
+    for t, _, _, name in particles:  # each time is its frame's own
+        assert output.read_vtu(vtk_run / name)["field_data"]["TimeValue"][0] == t
+    assert [d[0] for d in walls] == times and {d[3] for d in walls} == {"walls.vtu"}
+    assert {d[2] for d in particles} == {"particles"} and {d[2] for d in walls} == {"walls"}
+    assert all((vtk_run / d[3]).is_file() for d in datasets)
+    assert not list(vtk_run.glob(".*"))  # no temporary files left
+
+
+def test_walls_come_back_as_the_scenes_segments(vtk_run):
+    sim = Simulation(load_scene(TERRAIN), threads=1)
+    assert np.array_equal(segments(vtk_run / "walls.vtu"), sim.walls)
+    assert len(output.read_vtu(vtk_run / "walls.vtu")["offsets"]) == 5  # joined polylines
+
+
+def test_metadata_is_in_every_vtk_file_and_the_pvd(vtk_run):
+    scene = load_scene(TERRAIN)
+    expected = md.run_metadata(Simulation(scene, threads=1))
+    files = [vtk_run / "frames.pvd", vtk_run / "walls.vtu", *sorted(vtk_run.glob("frame_*.vtu"))]
+    for path in files:
+        meta = output.read_metadata(path)
+        assert meta == expected, path
+    assert meta["scene_hash"] == md.scene_hash(json.loads((vtk_run / "scene.json").read_text()))
+    assert meta["threads"] == 1 and meta["method"] == "seed"
+
+
+def test_npz_frames_carry_the_metadata(tmp_path):
+    assert run_cli(tmp_path, "--format", "npz") == 0
+    frames = sorted((tmp_path / "out").glob("frame_*.npz"))
+    assert len(frames) == len(FRAME_TIMES) and not list((tmp_path / "out").glob("*.vtu"))
+    expected = md.run_metadata(Simulation(load_scene(TERRAIN), threads=1))
+    for path in frames:
+        with np.load(path) as f:  # no pickle needed: a plain string
+            assert set(f.files) == {"time", "positions", "velocities", "densities",
+                                    "pressures", "ids", "metadata"}
+        assert output.read_metadata(path) == expected
+
+
+def test_npz_is_the_default_format(tmp_path):
+    assert run_cli(tmp_path) == 0
+    assert len(list((tmp_path / "out").glob("frame_*.npz"))) == len(FRAME_TIMES)
+    assert not list((tmp_path / "out").glob("*.pvd"))
+
+
+def test_vtk_without_pyevtk_fails_in_one_line_naming_the_install(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "pyevtk", None)  # import pyevtk raises ImportError
+    assert run_cli(tmp_path, "--format", "vtk") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith("error: --format vtk") and 'pip install "pyevtk' in err
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+def test_format_needs_out(capsys):
+    from sphfluid.cli import main
+
+    assert main(["run", str(TERRAIN), "--duration", "0.01", "--format", "vtk"]) == 2
+    assert "--format needs --out DIR" in capsys.readouterr().err
+
+
+def test_a_killed_run_leaves_a_valid_collection_of_whole_frames(tmp_path):
+    """Killed while it writes frames as fast as it can: the .pvd parses and every
+    frame it lists reads back whole."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "sphfluid", "run", str(TERRAIN),
+                             "--duration", "2", "--every", "0.0002", "--threads", "1",
+                             "--out", str(out), "--format", "vtk", "--quiet"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if len(list(out.glob("frame_*.vtu"))) >= 8:
+                break
+            time.sleep(0.01)
+    finally:
+        proc.kill()
+        proc.wait()
+    listed = [d for d in pvd_datasets(out / "frames.pvd") if d[1] == "0"]
+    assert len(listed) >= 7
+    for t, _, _, name in listed:
+        d = output.read_vtu(out / name)
+        assert d["field_data"]["TimeValue"][0] == t
+        assert len(d["point_data"]["ids"]) == len(d["points"]) == 1435

@@ -13,8 +13,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 EXIT_BAD_INPUT = 2
 EXIT_UNSTABLE = 3
 
@@ -60,7 +58,10 @@ def _add_run(sub) -> None:
                        description="Simulate a scene without a window and print a summary.")
     r.add_argument("scene", help="scene JSON file")
     r.add_argument("--duration", type=_positive, help="simulated seconds (default: the scene's)")
-    r.add_argument("--out", type=Path, help="write frames as .npz files into this folder")
+    r.add_argument("--out", type=Path, help="write frames into this folder")
+    r.add_argument("--format", choices=("npz", "vtk"),
+                   help="frames as .npz files (the default), or as VTK .vtu files with a "
+                        "frames.pvd collection for ParaView")
     r.add_argument("--every", type=_positive,
                    help="simulated seconds between frames (default 1/30 s)")
     r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
@@ -265,8 +266,9 @@ def _run(args) -> int:
 
 
 def _prepare_run(args, scene, duration: float | None) -> int | None:
-    """Refuse a run without a duration or with --every but no --out, and make --out
-    with the scene as run in it: an exit code after saying why not, or None."""
+    """Refuse a run without a duration, with --every or --format but no --out, or with
+    --format vtk but no VTK writer installed, and make --out with the scene as run in
+    it: an exit code after saying why not, or None."""
     if duration is None:
         print(f"error: {args.scene}: the scene has no 'duration'; pass --duration T",
               file=sys.stderr)
@@ -274,6 +276,18 @@ def _prepare_run(args, scene, duration: float | None) -> int | None:
     if args.every is not None and args.out is None:
         print("error: --every needs --out DIR", file=sys.stderr)
         return EXIT_BAD_INPUT
+    fmt = getattr(args, "format", None)
+    if fmt is not None and args.out is None:
+        print("error: --format needs --out DIR", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if fmt == "vtk":
+        from .output import WriterMissingError, require_vtk_writer
+
+        try:
+            require_vtk_writer()
+        except WriterMissingError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
     if args.out is not None:
         try:
             args.out.mkdir(parents=True, exist_ok=True)
@@ -322,6 +336,11 @@ class _Run:
                                 for k in range(1, int(duration / every + 1e-9) + 1)}
         self.bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
         self.frames = 0
+        self.writer = None
+        if self.out:
+            from .output import frame_writer
+
+            self.writer = frame_writer(getattr(args, "format", None) or "npz", self.out, sim)
         st = sim.stats()
         self.max_err, self.max_comp = st["max_density_error"], st["max_compression"]
         self.particle_steps = 0
@@ -361,10 +380,7 @@ class _Run:
         self.max_comp = max(self.max_comp, st["max_compression"])
 
     def write_frame(self) -> None:
-        sim = self.sim
-        np.savez(self.out / f"frame_{self.frames:05d}.npz", time=sim.time,
-                 positions=sim.positions, velocities=sim.velocities, densities=sim.densities,
-                 pressures=sim.pressures, ids=sim.ids)
+        self.writer.write(self.sim)
         self.frames += 1
 
     def warn_of_retries(self) -> None:
