@@ -51,13 +51,28 @@ def test_run_metadata_describes_the_run():
     assert meta["scene_name"] == "test box"
 
 
-def test_git_commit_is_the_checkout_head(fresh_git_state):
-    if shutil.which("git") is None or not (ROOT / ".git").exists():
-        pytest.skip("not a git checkout")
-    head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
-                          text=True, check=True).stdout.strip()
-    commit, dirty = md.git_state()
-    assert commit == head and dirty in (True, False)
+def test_git_commit_is_the_checkouts_head_and_says_when_it_differs(tmp_path, monkeypatch,
+                                                                   fresh_git_state):
+    """In a checkout (here a new one: the tests may run on an installed package)."""
+    if shutil.which("git") is None:
+        pytest.skip("no git")
+
+    def git(*args):
+        return subprocess.run(["git", "-C", str(tmp_path), "-c", "user.name=t",
+                               "-c", "user.email=t@example.org", *args],
+                              capture_output=True, text=True, check=True).stdout.strip()
+
+    (tmp_path / "pyproject.toml").write_text("[project]\n")
+    git("init", "-q")
+    git("add", "pyproject.toml")
+    git("commit", "-q", "-m", "start")
+    monkeypatch.setattr(md, "_SOURCE_ROOT", tmp_path)
+    assert md.git_state() == (git("rev-parse", "HEAD"), False)
+    (tmp_path / "pyproject.toml").write_text("[project]\nname = 'x'\n")
+    md.git_state.cache_clear()
+    assert md.git_state() == (git("rev-parse", "HEAD"), True)
+    meta = md.run_metadata(Simulation(BASE_SCENE, threads=1))
+    assert meta["git_commit"] == git("rev-parse", "HEAD") and meta["git_dirty"] is True
 
 
 def test_git_commit_is_none_outside_a_checkout(tmp_path, monkeypatch, fresh_git_state):
