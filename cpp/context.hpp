@@ -59,6 +59,15 @@ class Context {
   Real last_dt() const { return last_dt_; }
   TimeStepLimit last_limit() const { return last_limit_; }
   std::int64_t removed() const { return removed_; }
+  // The clock and the counts as a checkpoint holds them.
+  void restore_clock(Real time, std::int64_t steps, Real last_dt, TimeStepLimit limit,
+                     std::int64_t removed) {
+    time_ = time;
+    step_count_ = steps;
+    last_dt_ = last_dt;
+    last_limit_ = limit;
+    removed_ = removed;
+  }
   // A step of dt is done.
   void advance(Real dt) {
     time_ += dt;

@@ -132,6 +132,67 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   particles_set();  // pouring is an energy input: the guard's budget grows with it
 }
 
+Snapshot Solver::snapshot() const {
+  Snapshot s;
+  for (const FieldBase* f : ctx_.ps.fields()) {
+    const auto* first = static_cast<const unsigned char*>(f->raw());
+    const std::size_t bytes = f->size() * f->components() * f->scalar_bytes();
+    s.fields.push_back({f->name(), f->components(), f->scalar_bytes(), f->integral(),
+                        std::vector<unsigned char>(first, first + bytes)});
+  }
+  s.time = ctx_.time();
+  s.last_dt = ctx_.last_dt();
+  s.step_count = ctx_.step_count();
+  s.removed = ctx_.removed();
+  s.retried_steps = retried_steps_;
+  s.last_limit = ctx_.last_limit();
+  s.energy_budget = ctx_.energy_budget;
+  s.energy_removed = ctx_.energy_removed;
+  s.method = method_->carried();
+  return s;
+}
+
+// The method's numbers first (they may make fields), then every field, which
+// must match the snapshot's one for one; nothing is evaluated: the fields
+// hold the last evaluation's results.
+void Solver::restore(const Snapshot& s) {
+  std::size_t n = 0;
+  for (const Snapshot::FieldData& d : s.fields) {
+    const std::size_t value = d.components * d.scalar_bytes;
+    require(value > 0 && d.bytes.size() % value == 0,
+            "checkpoint: field '" + d.name + "' is not whole values");
+    if (&d == &s.fields.front()) n = d.bytes.size() / value;
+    require(d.bytes.size() / value == n, "checkpoint: field '" + d.name +
+                                             "' differs in length from '" +
+                                             s.fields.front().name + "'");
+  }
+  require(n < static_cast<std::size_t>(INT32_MAX), "checkpoint: too many particles");
+  method_->restore_carried(s.method);
+  const auto& fields = ctx_.ps.fields();
+  auto find = [&](const FieldBase* f) -> const Snapshot::FieldData* {
+    for (const Snapshot::FieldData& d : s.fields)
+      if (d.name == f->name()) return &d;
+    return nullptr;
+  };
+  require(fields.size() == s.fields.size(),
+          "checkpoint: it holds " + std::to_string(s.fields.size()) +
+              " particle fields, this run has " + std::to_string(fields.size()));
+  for (const FieldBase* f : fields) {
+    const Snapshot::FieldData* d = find(f);
+    require(d != nullptr, std::string("checkpoint: no field '") + f->name() + "'");
+    require(d->components == f->components() && d->scalar_bytes == f->scalar_bytes() &&
+                d->integral == f->integral(),
+            std::string("checkpoint: field '") + f->name() + "' has another type");
+  }
+  ctx_.particles_changed();
+  for (FieldBase* f : fields) f->assign(find(f)->bytes.data(), n);
+  ctx_.restore_clock(s.time, s.step_count, s.last_dt, s.last_limit, s.removed);
+  ctx_.energy_budget = s.energy_budget;
+  ctx_.energy_removed = s.energy_removed;
+  retried_steps_ = s.retried_steps;
+  retry_log_.clear();
+}
+
 void Solver::particles_set() {
   ctx_.wrap_positions();
   ctx_.remove_outside_domain();

@@ -19,6 +19,26 @@
 
 namespace sphfluid {
 
+// Everything the next step depends on: each particle field by name, in
+// storage order, as its numbers (FieldBase); the clock and the counts; the
+// guard's budget; the method's own numbers (SphMethod::carried). Restoring
+// one into a solver of the same parameters continues the run bit for bit.
+struct Snapshot {
+  struct FieldData {
+    std::string name;
+    int components = 1;
+    std::size_t scalar_bytes = 0;
+    bool integral = false;
+    std::vector<unsigned char> bytes;
+  };
+  std::vector<FieldData> fields;
+  Real time = 0, last_dt = 0;
+  std::int64_t step_count = 0, removed = 0, retried_steps = 0;
+  TimeStepLimit last_limit = TimeStepLimit::kFixed;
+  Real energy_budget = 0, energy_removed = 0;
+  std::vector<Real> method;
+};
+
 class Solver {
  public:
   // positions, velocities: n entries each; ids: n entries or empty (0..n-1).
@@ -39,6 +59,10 @@ class Solver {
   void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
   // Append particles with fresh ids (one above the largest in use).
   void add_particles(const std::vector<Vec2>& positions, const std::vector<Vec2>& velocities);
+  // A checkpoint of the state, and continuing from one (std::invalid_argument
+  // when its fields are not this run's: another method or other options).
+  Snapshot snapshot() const;
+  void restore(const Snapshot& s);
   // Replace the walls; the step is re-specialised if walls appear or vanish.
   void set_walls(std::vector<Segment> walls);
   // The walls' surface velocities, one per segment (their tangential parts).

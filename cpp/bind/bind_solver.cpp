@@ -5,6 +5,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstring>
+#include <string>
+#include <vector>
+
 #include "bind/arrays.hpp"
 #include "solver.hpp"
 
@@ -102,6 +106,81 @@ void def_editing(SolverClass& c) {
           py::arg("velocities"),
           "The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by "
           "default and after set_walls.");
+}
+
+// A checkpoint as a dict: "fields" (name -> an array of the field's numbers,
+// (n,) or (n, components)), the clock and counts, the guard's budget, and
+// "method" (the method's own numbers).
+py::dict snapshot_to_dict(const Snapshot& s) {
+  py::dict fields;
+  for (const Snapshot::FieldData& f : s.fields) {
+    const std::string format = std::string(f.integral ? "i" : "f") + std::to_string(f.scalar_bytes);
+    const py::ssize_t n = static_cast<py::ssize_t>(f.bytes.size() / (f.components * f.scalar_bytes));
+    std::vector<py::ssize_t> shape{n};
+    if (f.components > 1) shape.push_back(f.components);
+    py::array a(py::dtype(format), shape);
+    if (!f.bytes.empty()) std::memcpy(a.mutable_data(), f.bytes.data(), f.bytes.size());
+    fields[py::str(f.name)] = a;
+  }
+  py::dict d;
+  d["fields"] = fields;
+  d["time"] = s.time;
+  d["step_count"] = s.step_count;
+  d["last_dt"] = s.last_dt;
+  d["last_dt_limit"] = static_cast<int>(s.last_limit);
+  d["removed_particles"] = s.removed;
+  d["retried_steps"] = s.retried_steps;
+  d["energy_budget"] = s.energy_budget;
+  d["energy_removed"] = s.energy_removed;
+  d["method"] = s.method;
+  return d;
+}
+
+Snapshot snapshot_from_dict(const py::dict& d) {
+  Snapshot s;
+  for (const auto& [key, value] : d["fields"].cast<py::dict>()) {
+    const py::array a = py::array::ensure(value, py::array::c_style);
+    if (!a || a.ndim() < 1 || a.ndim() > 2)
+      throw std::invalid_argument("checkpoint: field '" + key.cast<std::string>() +
+                                  "' is not a 1-D or 2-D array");
+    Snapshot::FieldData f;
+    f.name = key.cast<std::string>();
+    f.components = a.ndim() == 2 ? static_cast<int>(a.shape(1)) : 1;
+    f.scalar_bytes = static_cast<std::size_t>(a.itemsize());
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'f')
+      throw std::invalid_argument("checkpoint: field '" + f.name + "' is not numbers");
+    f.integral = kind == 'i';
+    const auto* first = static_cast<const unsigned char*>(a.data());
+    f.bytes.assign(first, first + a.nbytes());
+    s.fields.push_back(std::move(f));
+  }
+  s.time = d["time"].cast<Real>();
+  s.step_count = d["step_count"].cast<std::int64_t>();
+  s.last_dt = d["last_dt"].cast<Real>();
+  const int limit = d["last_dt_limit"].cast<int>();
+  if (limit < 0 || limit > static_cast<int>(TimeStepLimit::kMax))
+    throw std::invalid_argument("checkpoint: last_dt_limit out of range");
+  s.last_limit = static_cast<TimeStepLimit>(limit);
+  s.removed = d["removed_particles"].cast<std::int64_t>();
+  s.retried_steps = d["retried_steps"].cast<std::int64_t>();
+  s.energy_budget = d["energy_budget"].cast<Real>();
+  s.energy_removed = d["energy_removed"].cast<Real>();
+  s.method = d["method"].cast<std::vector<Real>>();
+  return s;
+}
+
+void def_checkpoint(SolverClass& c) {
+  c.def(
+       "snapshot", [](const Solver& s) { return snapshot_to_dict(s.snapshot()); },
+       "Everything the next step depends on, as a dict: 'fields' (each particle field's "
+       "numbers in storage order), the clock and counts, the guard's budget, 'method' "
+       "(the method's own numbers). restore() continues from it bit for bit.")
+      .def(
+          "restore", [](Solver& s, const py::dict& d) { s.restore(snapshot_from_dict(d)); },
+          py::arg("snapshot"),
+          "Continue from a snapshot() of a solver with the same parameters (ValueError when "
+          "its fields are not this run's).");
 }
 
 // Threads and the code paths that run.
@@ -213,6 +292,7 @@ void bind_solver(py::module_& m) {
   def_construction(c);
   def_stepping(c);
   def_editing(c);
+  def_checkpoint(c);
   def_threads(c);
   def_diagnostics(c);
   def_arrays(c);

@@ -7,8 +7,10 @@
 // still points at (copy-on-write), so a view never dangles.
 #pragma once
 
+#include <cstring>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -41,6 +43,14 @@ class FieldBase {
   void set_kind(FieldKind kind) { kind_ = kind; }
   virtual std::size_t size() const = 0;
   virtual void resize(std::size_t n) = 0;
+  // The values as numbers, for a checkpoint: each value is components()
+  // numbers of scalar_bytes() bytes, integers or floating point; raw() the
+  // first, assign() replaces all with n values from src.
+  virtual int components() const = 0;
+  virtual std::size_t scalar_bytes() const = 0;
+  virtual bool integral() const = 0;
+  virtual const void* raw() const = 0;
+  virtual void assign(const void* src, std::size_t n) = 0;
   virtual void compact(const std::vector<char>& keep) = 0;
   virtual std::size_t bytes() const = 0;
   virtual bool exclusive() const = 0;
@@ -64,10 +74,23 @@ class FieldBase {
   FieldKind kind_;
 };
 
+// A value's numbers: a scalar, or an Eigen vector's.
+template <class T, class = void>
+struct ValueLayout {
+  using Scalar = T;
+  static constexpr int kComponents = 1;
+};
+template <class T>
+struct ValueLayout<T, std::void_t<typename T::Scalar>> {
+  using Scalar = typename T::Scalar;
+  static constexpr int kComponents = static_cast<int>(sizeof(T) / sizeof(Scalar));
+};
+
 template <class T>
 class Field final : public FieldBase {
  public:
   using Buffer = std::vector<T>;
+  using Layout = ValueLayout<T>;
 
   // Sized to the set's particles (a field registered after they exist).
   Field(ParticleSet& set, const char* name, FieldKind kind);
@@ -88,6 +111,15 @@ class Field final : public FieldBase {
   void resize(std::size_t n) override {
     detach();
     buf_->resize(n);
+  }
+
+  int components() const override { return Layout::kComponents; }
+  std::size_t scalar_bytes() const override { return sizeof(typename Layout::Scalar); }
+  bool integral() const override { return std::is_integral_v<typename Layout::Scalar>; }
+  const void* raw() const override { return data(); }
+  void assign(const void* src, std::size_t n) override {
+    resize(n);
+    if (n > 0) std::memcpy(static_cast<void*>(data()), src, n * sizeof(T));
   }
 
   // A buffer of n entries to write a new version of the field into, without

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <vector>
 
 #include "core/params.hpp"
 #include "core/types.hpp"
@@ -40,6 +41,12 @@ class SphMethod {
   // Particles [first, size) were just set or added: a method that carries
   // state of its own (a density) gives them their initial values.
   virtual void particles_added(Index first) { (void)first; }
+  // The numbers of the method's own that the next step reads besides the
+  // particle fields (a checkpoint's), and setting them back; restore_carried
+  // makes the fields those numbers imply (a lazily made one), before the
+  // fields are filled. Its per-particle data the next step reads are fields.
+  virtual std::vector<Real> carried() const { return {}; }
+  virtual void restore_carried(const std::vector<Real>& values) { (void)values; }
   // Heap bytes of the method's own arrays, capacity included.
   virtual std::size_t bytes() const = 0;
 };

@@ -123,43 +123,6 @@ class WallTables {
     }
   }
 
-  // weighted_line(d): line(d) with each row's -W'/r taken as -f(r), f(r) a
-  // weighted gradient factor (the shifting sum's, terms/delta.hpp W21), on
-  // the rows of build(dx, m_over_rho0, true); 0 without them.
-  template <class GradientFactor>
-  void build_weighted_line(GradientFactor f, Real m_over_rho0) {
-    weighted_line_.assign(kTable + 1, 0);
-    if (!(static_rows_ && dx_ > 0)) return;
-    const Real dx = dx_;
-    const int reach = static_cast<int>(std::ceil(k_.h / dx)) + 1;
-    for (int t = 0; t <= kTable; ++t) {
-      const Real d = k_.h * t / kTable;
-      Real sg = 0;
-      for (int k = 0; first(d) + k * dx < k_.h; ++k) {
-        const Real dn = first(d) + k * dx;
-        for (int i = -reach; i <= reach; ++i) {
-          const Real r = std::sqrt(dn * dn + (i * dx) * (i * dx));
-          if (r < k_.h) sg += -f(r) * dn;
-        }
-      }
-      weighted_line_[t] = sg * m_over_rho0;
-    }
-    const int side = kCorner + 1;
-    corner_weighted_.assign(static_cast<std::size_t>(side) * side, 0);
-    for (int a = 0; a <= kCorner; ++a)
-      for (int b = 0; b <= kCorner; ++b) {
-        const Real d1 = k_.h * a / kCorner, d2 = k_.h * b / kCorner;
-        Real sg = 0;
-        for (int k = 0; first(d1) + k * dx < k_.h; ++k)
-          for (int l = 0; first(d2) + l * dx < k_.h; ++l) {
-            const Real u = first(d1) + k * dx, v = first(d2) + l * dx;
-            const Real r = std::sqrt(u * u + v * v);
-            if (r < k_.h) sg += -f(r) * u;
-          }
-        corner_weighted_[static_cast<std::size_t>(a) * side + b] = sg * m_over_rho0;
-      }
-  }
-
   // The quadrant beyond two perpendicular walls at distances d1 and d2: with a
   // lattice spacing dx > 0, the particle's lattice mirrored through the corner
   // (points at 2 d1 + k dx and 2 d2 + l dx along the two wall normals, k, l >= 0,
@@ -212,7 +175,6 @@ class WallTables {
   }
   Real corner_half(Real d1, Real d2) const { return corner(corner_half_, d1, d2); }
   Real corner_line(Real d1, Real d2) const { return corner(corner_line_, d1, d2); }
-  Real corner_weighted_line(Real d1, Real d2) const { return corner(corner_weighted_, d1, d2); }
   // The quadrant's sums of -W'/r s_1^2 and -W'/r s_1 s_2 (s_k along normal k),
   // for the hydrostatic push (terms/delta.hpp, W20).
   Real corner_11(Real d1, Real d2) const { return corner(corner_11_, d1, d2); }
@@ -229,7 +191,6 @@ class WallTables {
   Real first(Real d) const { return static_rows_ ? d + Real(0.5) * dx_ : 2 * d; }
   Real wall_line(Real d) const { return table(line_, d); }
   Real wall_half(Real d) const { return table(half_, d); }
-  Real wall_weighted_line(Real d) const { return table(weighted_line_, d); }
   Real wall_nn(Real d) const { return table(nn_, d); }
   // The no-slip friction's sum of -W'/r beta over the rows, times m / rho0:
   // Morris, Fox & Zhu (1997) give a row at distance d_B behind the wall the
@@ -243,7 +204,7 @@ class WallTables {
   Real wall_tt(Real d) const { return table(tt_, d); }
   std::size_t bytes() const {
     return (line_.capacity() + half_.capacity() + nn_.capacity() + tt_.capacity() +
-            friction_.capacity() + weighted_line_.capacity() + corner_weighted_.capacity() +
+            friction_.capacity() +
             corner_half_.capacity() + corner_line_.capacity() + corner_11_.capacity() +
             corner_12_.capacity()) *
            sizeof(Real);
@@ -253,8 +214,8 @@ class WallTables {
   Wendland k_;
   bool static_rows_ = false;
   Real dx_ = 0;
-  std::vector<Real> line_, half_, nn_, tt_, friction_, weighted_line_;
-  std::vector<Real> corner_half_, corner_line_, corner_11_, corner_12_, corner_weighted_;
+  std::vector<Real> line_, half_, nn_, tt_, friction_;
+  std::vector<Real> corner_half_, corner_line_, corner_11_, corner_12_;
 };
 
 }  // namespace sphfluid

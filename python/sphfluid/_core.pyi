@@ -2,7 +2,7 @@
 # its submodules are typed in _core/kernels.pyi and _core/walls.pyi. The contract
 # the bindings keep: tests/test_stub.py checks this file against the built module.
 from collections.abc import Sequence
-from typing import ClassVar, Literal, TypedDict, type_check_only
+from typing import Any, ClassVar, Literal, TypedDict, type_check_only
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -141,6 +141,13 @@ class Solver(metaclass=_Pybind11Type):
     def set_wall_velocities(self, velocities: ArrayLike) -> None:
         """The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by
         default and after set_walls."""
+    def snapshot(self) -> dict[str, Any]:
+        """Everything the next step depends on: 'fields' (each particle field's numbers
+        in storage order), the clock and counts, the guard's budget, 'method' (the
+        method's own numbers). restore() continues from it bit for bit."""
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Continue from a snapshot() of a solver with the same parameters (ValueError
+        when its fields are not this run's)."""
     @property
     def threads(self) -> int:
         """OpenMP threads the step may use (0: the OpenMP default)."""

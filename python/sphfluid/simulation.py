@@ -340,10 +340,29 @@ class Simulation:
         return list(self._solver.retry_log)
 
     def save_state(self, path) -> None:
-        """Write the current state (after a trip: the last good one) as .npz."""
-        np.savez(path, time=self.time, step_count=self.step_count, positions=self.positions,
-                 velocities=self.velocities, densities=self.densities,
-                 pressures=self.pressures, accelerations=self.accelerations, ids=self.ids)
+        """Write a checkpoint of the current state (after a trip: the last good
+        one) to path, an .npz file (sphfluid.checkpoint): ``load_state`` or
+        ``Simulation.from_checkpoint`` continue from it bit for bit. Written under
+        a temporary name and renamed into place."""
+        from . import checkpoint
+
+        checkpoint.save(self, path)
+
+    def load_state(self, path) -> None:
+        """Continue from a checkpoint written by ``save_state`` for this scene
+        (sphfluid.checkpoint.CheckpointError, a ValueError, for another scene,
+        another sphfluid version or a file that is not a checkpoint; the state
+        is then unchanged)."""
+        from . import checkpoint
+
+        checkpoint.restore(self, path)
+
+    @classmethod
+    def from_checkpoint(cls, path, *, threads: int | None = None) -> Simulation:
+        """A simulation of the scene a checkpoint holds, continued from it."""
+        from . import checkpoint
+
+        return checkpoint.load(path, threads=threads)
 
     @property
     def removed_particles(self) -> int:

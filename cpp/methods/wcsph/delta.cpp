@@ -39,13 +39,9 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
   inv_s_ = 1 / delta::gradient_normalisation(kernel_, dx, P_.mass / P_.rho0);  // W29
   alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
-  // the rows' share of the shifting sum (W21), with the fluid's pair weight
-  walls_.build_weighted_line(
-      [&](Real r) { return delta::shift_weight(kernel_, r, inv_wdx_); }, P_.mass / P_.rho0);
   // The shift moves with its particle through the sort; with "auto" the field
   // waits for the fluid's shape (density()).
-  if (P_.shifting > 0 && !P_.shift_confined)
-    shift_ = std::make_unique<Field<Vec2>>(ctx.ps, "shift", FieldKind::kState);
+  if (P_.shifting > 0 && !P_.shift_confined) make_shift_fields();
   if (P_.sigma > 0)  // W10-W12; the colour kernel's support 4 dx (docs, "Surface tension")
     surface_ = SurfaceEnergy(P_.sigma, 4 * dx, dx, P_.domain_min, ctx.box);
   ctx_.ps.rho.set_kind(FieldKind::kState);  // carried from step to step
@@ -66,8 +62,7 @@ void DeltaWcsphMethod::particles_added(Index first) {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   if (first == 0) {  // a new fluid (set_state): "auto" shifting decides again
-    shape_known_ = confined_ = false;
-    shift_sum_.clear();
+    shape_known_ = confined_ = shift_ready_ = false;
   }
   const Real gl = P_.gravity.norm();
   const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
@@ -94,6 +89,36 @@ void DeltaWcsphMethod::particles_added(Index first) {
   }
 }
 
+void DeltaWcsphMethod::make_shift_fields() {
+  if (shift_) return;
+  ParticleSet& ps = ctx_.ps;
+  shift_ = std::make_unique<Field<Vec2>>(ps, "shift", FieldKind::kState);
+  shift_sum_ = std::make_unique<Field<Vec2>>(ps, "shift_sum", FieldKind::kDerived);
+  colour_ = std::make_unique<Field<Vec2>>(ps, "colour_gradient", FieldKind::kDerived);
+}
+
+std::vector<Real> DeltaWcsphMethod::carried() const {
+  return {Real(shape_known_), Real(confined_), Real(shift_ready_), shift_per_dt_,
+          Real(shift_ != nullptr)};
+}
+
+void DeltaWcsphMethod::restore_carried(const std::vector<Real>& values) {
+  if (values.size() != 5)
+    throw std::invalid_argument("checkpoint: wcsph's continuity density carries 5 numbers, "
+                                "not " + std::to_string(values.size()));
+  shape_known_ = values[0] != 0;
+  confined_ = values[1] != 0;
+  shift_ready_ = values[2] != 0;
+  shift_per_dt_ = values[3];
+  if (values[4] != 0) {
+    make_shift_fields();
+  } else {
+    shift_.reset();
+    shift_sum_.reset();
+    colour_.reset();
+  }
+}
+
 // W3 without the clamp: below rho0 the energy of the stretched state.
 Real DeltaWcsphMethod::elastic_energy() const {
   const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
@@ -104,9 +129,8 @@ Real DeltaWcsphMethod::elastic_energy() const {
 }
 
 std::size_t DeltaWcsphMethod::bytes() const {
-  return (sums_.capacity() + lap_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
-         (rate_lap_.capacity() + shift_sum_.capacity() + colour_.capacity() +
-          0) * sizeof(Vec2) +
+  return (lap_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
+         rate_lap_.capacity() * sizeof(Vec2) +
          walls_.bytes() + surface_.bytes();
 }
 
@@ -149,7 +173,6 @@ void DeltaWcsphMethod::evaluate_kick(Real dt, Real half) {
 template <unsigned F>
 void DeltaWcsphMethod::neighbours() {
   ParticleSet& ps = ctx_.ps;
-  sums_.resize(ps.size());
   by_cells_ = false;
   if constexpr (by_cells(F)) {
     by_cells_ = true;
@@ -268,8 +291,7 @@ void DeltaWcsphMethod::density(Real dt) {
   if (!shape_known_ && n > 0) {  // shift_confined: the fluid's shape at the start
     confined_ = surface == 0;
     shape_known_ = true;
-    if (shifts_next() && !shift_)
-      shift_ = std::make_unique<Field<Vec2>>(ps, "shift", FieldKind::kState);
+    if (shifts_next()) make_shift_fields();
   }
   ctx_.timer.mark(kDensity);
 }
@@ -323,7 +345,7 @@ bool DeltaWcsphMethod::forces_by_cells() {
       const delta::ShiftForcePairs<simd::D8, kVisc> pair{force_pairs<F, simd::D8>(),
                                                          simd::splat<simd::D8>(inv_wdx_)};
       cells.pair_sums(ctx_.search.grid(), frame, pair,
-                      std::array<Vec2*, 3>{a, shift_sum_.data(), colour_.data()}, ctx_.team());
+                      std::array<Vec2*, 3>{a, shift_sum_->data(), colour_->data()}, ctx_.team());
     } else {
       cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8>(), a, ctx_.team());
     }
@@ -332,7 +354,7 @@ bool DeltaWcsphMethod::forces_by_cells() {
         Vec2 f = a[i];
         add_wall_force<F>(i, ghosts, f);
         a[i] = f;
-        if (shifting) add_wall_shift(ghosts, shift_sum_[i]);
+        if (shifting) (*shift_sum_)[i] = Vec2::Zero();  // within h of a wall: no shift
       });
     }
     return true;
@@ -350,12 +372,7 @@ void DeltaWcsphMethod::forces() {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   const bool shifting = shifts_next();  // the shifting sums only where they are used
-  if (shifting) {
-    shift_sum_.resize(n);
-    colour_.resize(n);
-  } else {
-    shift_sum_.clear();  // the next drift does not shift (shift_for)
-  }
+  shift_ready_ = shifting;  // whether the next drift shifts (shift_for)
   if (forces_by_cells<F>()) {
     ctx_.timer.mark(kForces);
     return;
@@ -382,12 +399,12 @@ void DeltaWcsphMethod::forces() {
     if constexpr ((F & kWalls) != 0) {
       const Row<Vec2> ghosts = ctx_.ghosts.row(i);
       add_wall_force<F>(i, ghosts, f);
-      if (shifting) add_wall_shift(ghosts, s);
+      if (shifting && ghosts.begin() != ghosts.end()) s.setZero();  // within h of a wall
     }
     ps.a[i] = f;
     if (shifting) {
-      shift_sum_[i] = s;
-      colour_[i] = sum.c;
+      (*shift_sum_)[i] = s;
+      (*colour_)[i] = sum.c;
     }
   };
   struct Visitor {
@@ -405,19 +422,6 @@ void DeltaWcsphMethod::forces() {
   ctx_.timer.mark(kForces);
 }
 
-// The walls' rows in the shifting sum (W21) of a particle with these ghosts:
-// per half-plane -Psi_w(d) n with the sum's own pair weight, a corner's
-// quadrant taken out once.
-void DeltaWcsphMethod::add_wall_shift(Row<Vec2> ghosts, Vec2& s) const {
-  for (const Vec2& g : ghosts) {
-    const Real gl = g.norm();
-    if (gl > 0) s -= (walls_.wall_weighted_line(gl) / gl) * g;
-  }
-  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-    s += (walls_.corner_weighted_line(d1, d2) / d1) * r1 +
-         (walls_.corner_weighted_line(d2, d1) / d2) * r2;
-  });
-}
 
 // The walls' push on particle i (W8-W9's pressure and artificial viscosity,
 // W25's friction, W20's hydrostatic part) added to f.
@@ -452,7 +456,7 @@ template <unsigned F>
 bool DeltaWcsphMethod::shift_for(Real dt) {
   const ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
-  if (shift_sum_.size() != static_cast<std::size_t>(n)) return false;
+  if (!shift_ready_) return false;
   Real v2 = 0;
 #pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(max : v2)
   for (Index i = 0; i < n; ++i) v2 = std::max(v2, ps.v[i].squaredNorm());
@@ -462,15 +466,11 @@ bool DeltaWcsphMethod::shift_for(Real dt) {
   const Real cap = std::min(kShiftCap * dx, kShiftSpeed * std::sqrt(v2) * dt);
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
-    Vec2 d = scale * shift_sum_[i];
-    if constexpr ((F & kWalls) != 0) {
-      const Row<Vec2> g = ctx_.ghosts.row(i);
-      if (g.begin() != g.end()) d.setZero();  // within h of a wall: none
-    }
+    Vec2 d = scale * (*shift_sum_)[i];  // none within h of a wall (forces())
     if (sums_[i] < kSurfaceSum) {
-      const Real cl = colour_[i].norm();
+      const Real cl = (*colour_)[i].norm();
       if (cl > 0) {
-        const Vec2 normal = colour_[i] / cl;
+        const Vec2 normal = (*colour_)[i] / cl;
         d -= d.dot(normal) * normal;
       } else {
         d.setZero();

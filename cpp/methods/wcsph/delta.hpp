@@ -34,6 +34,10 @@ class DeltaWcsphMethod final : public SphMethod {
   void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
   void evaluate() override { eval_fn_(*this); }
   void particles_added(Index first) override;
+  // "auto" shifting's decision, whether the next drift shifts, and the last
+  // drift's shift rate (W27), as numbers.
+  std::vector<Real> carried() const override;
+  void restore_carried(const std::vector<Real>& values) override;
   Real elastic_energy() const override;
   Real surface_energy() const override { return surface_.energy(); }
   std::size_t bytes() const override;
@@ -59,7 +63,6 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void neighbours();
   template <unsigned F> void density(Real dt);
   template <unsigned F, bool Shift, class Constants> void rate_pass(Constants constants, Vec2* rl);
-  void add_wall_shift(Row<Vec2> ghosts, Vec2& s) const;
   void state();
   template <unsigned F> void forces();
   template <unsigned F> bool forces_by_cells();
@@ -101,18 +104,22 @@ class DeltaWcsphMethod final : public SphMethod {
   EvalFn* eval_fn_ = nullptr;
   Real inv_wdx_;                  // 1 / W(dx), the shifting's reference
   Real alpha_;                    // the artificial viscosity's alpha (W28)
-  std::vector<Real> sums_;        // kernel sums over the fluid and walls, / rho0
+  // kernel sums over the fluid and walls, / rho0 (the next drift's shift reads them)
+  Field<Real> sums_{ctx_.ps, "kernel_sum", FieldKind::kDerived};
   bool by_cells_ = false;         // this evaluation's pairs run by cell clusters
   std::vector<Vec2> rate_lap_;    // (d rho / dt, W24's sum)
   std::vector<Real> lap_;         // the viscous term's normalisation c_i (W24)
   std::vector<Real> inv_rho_;     // 1 / rho
-  std::vector<Vec2> shift_sum_;   // W21's sum of each particle
-  std::vector<Vec2> colour_;      // sum of V_j grad W_ij: the free surface's normal
-  std::unique_ptr<Field<Vec2>> shift_;  // the next drift's shift, m (with shifting only)
+  // With shifting only (make_shift_fields): the next drift's shift, m; W21's
+  // sum of each particle (zero within h of a wall) and the sum of V_j grad
+  // W_ij, the free surface's normal, from which the next step makes it.
+  std::unique_ptr<Field<Vec2>> shift_, shift_sum_, colour_;
+  void make_shift_fields();
   Real open_sum_;             // delta::open_surface_sum of the lattice
   Real inv_s_ = 1;  // 1 / the lattice's gradient normalisation (W29)
   bool shape_known_ = false;  // shift_confined: whether the fluid's shape is known,
   bool confined_ = false;     // and whether it has no free surface
+  bool shift_ready_ = false;  // this evaluation took the shifting sums
   Real shift_per_dt_ = 0;         // 1 / dt of a step whose drift shifted, else 0
 };
 
