@@ -181,3 +181,66 @@ def test_a_writer_killed_mid_file_leaves_a_whole_checkpoint(tmp_path):
         meta, fields = read(path)
         assert len(fields["position"]) == len(fields["id"]) > 3000
         Simulation.from_checkpoint(path).step(1)
+
+
+def _cli(*args):
+    from sphfluid.cli import main
+    return main([str(a) for a in args])
+
+
+@pytest.mark.parametrize("fmt", ["npz", "vtk"])
+def test_a_run_resumed_from_the_command_line_ends_as_one_run(fmt, tmp_path, capsys):
+    """`run --checkpoint-every` to t = 0.06 s, then `--resume` to 0.12 s: the
+    frames after the checkpoint and the last checkpoint are those of one run to
+    0.12 s, and the frames continue the same collection."""
+    scene = ROOT / "scenes" / "water" / "dam_break.json"
+    common = ["--checkpoint-every", 0.06, "--every", 0.02, "--format", fmt, "--quiet",
+              "--threads", 2]
+    assert _cli("run", scene, "--duration", 0.12, "--out", tmp_path / "one", *common) == 0
+    assert _cli("run", scene, "--duration", 0.06, "--out", tmp_path / "two", *common) == 0
+    assert _cli("run", scene, "--duration", 0.12, "--out", tmp_path / "two", *common,
+                "--resume", tmp_path / "two" / "checkpoint.npz") == 0
+    out = capsys.readouterr().out
+    assert "(from t = 0.06 s to 0.12 s)" in out and "checkpoint.npz (t = 0.12 s" in out
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert sorted(p.name for p in one.glob("frame_*")) == \
+        sorted(p.name for p in two.glob("frame_*"))
+    if fmt == "npz":
+        for name in ("frame_00005.npz", "frame_00006.npz"):
+            with np.load(one / name) as a, np.load(two / name) as b:
+                for key in ("time", "positions", "velocities", "densities", "ids"):
+                    np.testing.assert_array_equal(a[key], b[key])
+    else:
+        from sphfluid.output import read_vtu
+        a, b = read_vtu(one / "frame_00006.vtu"), read_vtu(two / "frame_00006.vtu")
+        np.testing.assert_array_equal(a["points"], b["points"])
+        for key in a["point_data"]:
+            np.testing.assert_array_equal(a["point_data"][key], b["point_data"][key])
+
+        def frames(folder):
+            import xml.etree.ElementTree as ET
+            return [(d.get("timestep"), d.get("file"))
+                    for d in ET.parse(folder / "frames.pvd").getroot().iter("DataSet")
+                    if d.get("part") == "0"]
+        assert frames(one) == frames(two) and len(frames(one)) == 7
+    ma, fa = read(one / "checkpoint.npz")
+    mb, fb = read(two / "checkpoint.npz")
+    assert ma["solver"] == mb["solver"] and ma["solver"]["time"] == 0.12
+    assert all(np.array_equal(fa[k], fb[k]) for k in fa)
+
+
+def test_the_command_line_refuses_what_it_cannot_resume(tmp_path, capsys):
+    scene = ROOT / "scenes" / "water" / "dam_break.json"
+    assert _cli("run", scene, "--duration", 0.01, "--checkpoint-every", 0.01) == 2
+    assert "--checkpoint-every needs --out DIR" in capsys.readouterr().err
+    assert _cli("run", scene, "--duration", 0.01, "--out", tmp_path, "--checkpoint-every",
+                0.01, "--quiet") == 0
+    capsys.readouterr()
+    assert _cli("run", scene, "--duration", 0.01, "--resume", tmp_path / "checkpoint.npz") == 2
+    assert "at or past the end of the run (t = 0.01 s); pass a longer --duration" in \
+        capsys.readouterr().err
+    other = ROOT / "scenes" / "water" / "hydrostatic.json"
+    assert _cli("run", other, "--duration", 1, "--resume", tmp_path / "checkpoint.npz") == 2
+    assert "written for another scene" in capsys.readouterr().err
+    assert _cli("run", scene, "--resume", tmp_path / "scene.json") == 2
+    assert "cannot be read as a checkpoint" in capsys.readouterr().err

@@ -64,6 +64,12 @@ def _add_run(sub) -> None:
                         "frames.pvd collection for ParaView")
     r.add_argument("--every", type=_positive,
                    help="simulated seconds between frames (default 1/30 s)")
+    r.add_argument("--checkpoint-every", type=_positive, metavar="T",
+                   help="write DIR/checkpoint.npz (with --out DIR) every T simulated seconds "
+                        "and at the end, replacing the last one")
+    r.add_argument("--resume", type=Path, metavar="CHECKPOINT",
+                   help="continue from a checkpoint written for this scene, to the same end "
+                        "(frames continue in --out)")
     r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -258,11 +264,31 @@ def _run(args) -> int:
     if refused is not None:
         return refused
     sim = Simulation(scene, threads=args.threads)
+    if args.resume is not None:
+        refused = _resume(args, sim, duration)
+        if refused is not None:
+            return refused
     print(_run_header(args, sim, duration), file=sys.stderr)
     run = _Run(args, sim, duration)
     run.to_end()
     _print_summary(run)
     return 0
+
+
+def _resume(args, sim, duration: float) -> int | None:
+    """Continue sim from --resume: None, or an exit code after saying why not."""
+    from .checkpoint import CheckpointError
+
+    try:
+        sim.load_state(args.resume)
+    except CheckpointError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if sim.time >= duration * (1 - 1e-12):
+        print(f"error: {args.resume}: the checkpoint is at t = {sim.time:.6g} s, at or past the "
+              f"end of the run (t = {duration:g} s); pass a longer --duration", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return None
 
 
 def _prepare_run(args, scene, duration: float | None) -> int | None:
@@ -273,9 +299,10 @@ def _prepare_run(args, scene, duration: float | None) -> int | None:
         print(f"error: {args.scene}: the scene has no 'duration'; pass --duration T",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    if args.every is not None and args.out is None:
-        print("error: --every needs --out DIR", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    for given, option in ((args.every, "--every"), (args.checkpoint_every, "--checkpoint-every")):
+        if given is not None and args.out is None:
+            print(f"error: {option} needs --out DIR", file=sys.stderr)
+            return EXIT_BAD_INPUT
     fmt = getattr(args, "format", None)
     if fmt is not None and args.out is None:
         print("error: --format needs --out DIR", file=sys.stderr)
@@ -309,6 +336,8 @@ def _run_header(args, sim, duration: float) -> str:
         precision = (" (pair forces in float)" if sim.stats()["pair_precision"] == "float" else
                      " (pair forces in double: float runs without surface tension and periodic "
                      "axes, in AVX-512 builds)")
+    if sim.time > 0:  # resumed
+        step_text += f", resuming at t = {sim.time:.6g} s (step {sim.step_count:,})"
     return (f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "
             f"{len(scene.walls)} walls, method {scene.method}{precision}, {step_text} to "
             f"t = {duration:g} s, "
@@ -318,9 +347,14 @@ def _run_header(args, sim, duration: float) -> str:
 
 
 class _Run:
-    """The run loop of `sphfluid run`: it stops at 100 sample times (progress, the
-    density error) and at every frame time, writes the frames, warns of retried
-    steps and, on a blow-up, saves the last good state."""
+    """The run loop of `sphfluid run`: it lands on every frame time, checkpoint
+    time and the end (the times that shape an adaptive run's path, so a run
+    resumed from a checkpoint with the same options continues bit for bit),
+    samples the density error and draws progress every CHUNK steps between
+    them, writes the frames and checkpoints, warns of retried steps and, on a
+    blow-up, saves the last good state."""
+
+    CHUNK = 25  # steps between progress and density samples
 
     def __init__(self, args, sim, duration: float):
         from .simulation import _ProgressBar
@@ -328,19 +362,31 @@ class _Run:
         self.sim = sim
         self.out: Path | None = args.out
         self.scene_path = args.scene
+        self.duration = duration
+        start = sim.time  # 0, or a checkpoint's time
         every = args.every if args.every is not None else 1.0 / 30.0
-        self.samples = {round(duration * k / 100, 12) for k in range(1, 101)}
-        self.frame_times = set()
-        if self.out:
-            self.frame_times = {round(every * k, 12)
-                                for k in range(1, int(duration / every + 1e-9) + 1)}
-        self.bar = None if args.quiet else _ProgressBar(duration, sim.step_count)
+
+        def multiples(step: float | None) -> dict[float, int]:  # time -> k, after start
+            if step is None:
+                return {}
+            return {t: k for k in range(1, int(duration / step + 1e-9) + 1)
+                    if (t := round(step * k, 12)) > start * (1 + 1e-12)}
+
+        self.frame_times = multiples(every) if self.out else {}
+        self.checkpoint_times = set(multiples(args.checkpoint_every))
+        if args.checkpoint_every is not None:
+            self.checkpoint_times.add(duration)
+        self.bar = None if args.quiet else _ProgressBar(duration - start, sim.step_count)
+        self.start, self.first_step = start, sim.step_count
+        self.checkpoint_time: float | None = None  # of the last checkpoint written
         self.frames = 0
         self.writer = None
         if self.out:
             from .output import frame_writer
 
             self.writer = frame_writer(getattr(args, "format", None) or "npz", self.out, sim)
+            if start > 0 and self.frame_times:  # resumed: the frames before are there
+                self.writer.resume(min(self.frame_times.values()))
         st = sim.stats()
         self.max_err, self.max_comp = st["max_density_error"], st["max_compression"]
         self.particle_steps = 0
@@ -349,35 +395,42 @@ class _Run:
 
     def to_end(self) -> None:
         start = time.perf_counter()
-        if self.out:
+        if self.out and self.start == 0:
             self.write_frame()
-        for target in sorted(self.samples | self.frame_times):
+        for target in sorted({*self.frame_times, *self.checkpoint_times, self.duration}):
             self.advance_to(target)
             if target in self.frame_times:
                 self.write_frame()
-            if self.bar:
-                self.bar.update(self.sim.time, self.sim)
+            if target in self.checkpoint_times:
+                self.sim.save_state(self.out / "checkpoint.npz")
+                self.checkpoint_time = self.sim.time
         if self.bar:
             self.bar.close()
         self.wall = time.perf_counter() - start
 
     def advance_to(self, target: float) -> None:
+        """To target, sampling every CHUNK steps."""
         from .simulation import InstabilityError
 
         sim = self.sim
-        n_before = sim.n_particles
-        try:
-            steps = sim.advance_to(target)
-        except InstabilityError:
+        while True:
+            n_before = sim.n_particles
+            try:
+                steps = sim.advance_to(target, max_steps=self.CHUNK)
+            except InstabilityError:
+                if self.bar:
+                    self.bar.close()
+                self.save_last_good_state()
+                raise
+            self.warn_of_retries()
+            self.particle_steps += steps * n_before
+            st = sim.stats()
+            self.max_err = max(self.max_err, st["max_density_error"])
+            self.max_comp = max(self.max_comp, st["max_compression"])
             if self.bar:
-                self.bar.close()
-            self.save_last_good_state()
-            raise
-        self.warn_of_retries()
-        self.particle_steps += steps * n_before
-        st = sim.stats()
-        self.max_err = max(self.max_err, st["max_density_error"])
-        self.max_comp = max(self.max_comp, st["max_compression"])
+                self.bar.update(sim.time - self.start, sim)
+            if steps < self.CHUNK:
+                return
 
     def write_frame(self) -> None:
         self.writer.write(self.sim)
@@ -406,13 +459,15 @@ class _Run:
 
 def _print_summary(run: _Run) -> None:
     sim, wall = run.sim, run.wall
-    done = sim.step_count
+    done = sim.step_count - run.first_step
     st = sim.stats()
-    print(f"steps               {done:,}")
-    print(f"simulated time      {sim.time:.4f} s")
+    print(f"steps               {done:,}" + (f" (from step {run.first_step:,})" if run.start else ""))
+    print(f"simulated time      {sim.time - run.start:.4f} s"
+          + (f" (from t = {run.start:.6g} s to {sim.time:.6g} s)" if run.start else ""))
     print(f"wall time           {wall:.2f} s")
     if sim.adaptive:
-        print(f"mean dt             {sim.time / max(done, 1):.3g} s (last {sim.dt:.3g} s, "
+        print(f"mean dt             {(sim.time - run.start) / max(done, 1):.3g} s "
+              f"(last {sim.dt:.3g} s, "
               f"limited by {sim.dt_limit})")
     print(f"steps/s             {done / max(wall, 1e-9):,.0f}")
     print(f"particle-steps/s    {run.particle_steps / max(wall, 1e-9):,.0f}")
@@ -429,6 +484,9 @@ def _print_summary(run: _Run) -> None:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
     if run.out:
         print(f"frames              {run.frames} in {run.out}{os.sep}")
+    if run.checkpoint_time is not None:
+        print(f"checkpoint          {run.out / 'checkpoint.npz'} (t = {run.checkpoint_time:.6g} s; "
+              "sphfluid run SCENE --resume it)")
 
 
 def _size(text: str) -> tuple[int, int] | None:

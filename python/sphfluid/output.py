@@ -91,6 +91,10 @@ class NpzFrames:
         self.metadata_json = json.dumps(metadata, sort_keys=True)
         self.count = 0
 
+    def resume(self, count: int) -> None:
+        """Go on from frame number count (a resumed run's next frame)."""
+        self.count = count
+
     def write(self, sim) -> Path:
         path = self.folder / f"frame_{self.count:05d}.npz"
         with replacing(path) as tmp, open(tmp, "wb") as f:
@@ -113,6 +117,27 @@ class VtkFrames:
         self.datasets: list[tuple[float, str, str | None]] = []  # time, frame, walls file
         self._walls: np.ndarray | None = None
         self._walls_file: str | None = None
+
+    def resume(self, count: int) -> None:
+        """Go on from frame number count (a resumed run's next frame): the
+        collection keeps the frames before it that frames.pvd lists."""
+        self.count = count
+        pvd = self.folder / PVD_NAME
+        if not pvd.exists():
+            return
+        walls: dict[str, str] = {}
+        frames = []
+        try:
+            root = ET.parse(pvd).getroot()
+        except ET.ParseError:  # (written atomically: not by a run of ours)
+            return
+        for d in root.iter("DataSet"):
+            t, file = d.get("timestep"), d.get("file")
+            if d.get("part") == "1":
+                walls[t] = file
+            elif file.startswith("frame_") and int(file[6:11]) < count:
+                frames.append((t, file))
+        self.datasets = [(float(t), file, walls.get(t)) for t, file in frames]
 
     def write(self, sim) -> Path:
         walls_file = self._write_walls(np.asarray(sim.walls, dtype=np.float64).reshape(-1, 2, 2))

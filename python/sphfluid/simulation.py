@@ -163,15 +163,20 @@ class Simulation:
         else:
             self._solver.step(self.scene.time_step, int(n))
 
-    def advance_to(self, t_end: float) -> int:
-        """Step until the simulated time reaches t_end; returns the steps taken.
+    def advance_to(self, t_end: float, max_steps: int | None = None) -> int:
+        """Step until the simulated time reaches t_end, or max_steps were taken;
+        returns the steps taken.
 
         Fixed steps stop at the first step at or past t_end; adaptive ones
-        shorten the last step to land on it.
+        shorten the last step to land on it (so the end times a run stops at
+        are part of its path; stopping after max_steps is not).
         """
+        limit = 2**62 if max_steps is None else int(max_steps)
+        if limit < 0:
+            raise ValueError(f"max_steps must be >= 0, got {max_steps}")
         if self.adaptive:
-            return self._solver.advance_adaptive(float(t_end), 2**62)
-        n = max(0, math.ceil((t_end - self.time) / self.scene.time_step - 1e-9))
+            return self._solver.advance_adaptive(float(t_end), limit)
+        n = min(limit, max(0, math.ceil((t_end - self.time) / self.scene.time_step - 1e-9)))
         self.step(n)
         return n
 
