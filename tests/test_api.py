@@ -115,6 +115,18 @@ def test_blow_up_raises_instability_error_naming_step_and_particle(scene_dict):
         sim.run(5.0)
 
 
+def test_run_shows_progress_over_simulated_time(scene_dict, capsys):
+    sim = sphfluid.Simulation(scene_dict)
+    sim.run(0.02)
+    assert capsys.readouterr().err == ""
+    sim.run(0.03, progress=True)  # from t = 0.02 to 0.05
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2, err  # stderr is not a terminal: the first and the last state
+    assert err[0].startswith(" 40%|") and "t = 0.0200/0.05 s" in err[0]
+    assert err[1].startswith("100%|") and "t = 0.0500/0.05 s" in err[1]
+    assert "dt 0.001 s" in err[1] and "steps/s" in err[1]
+
+
 def test_run_without_duration_is_an_error(scene_dict):
     del scene_dict["duration"]
     sim = sphfluid.Simulation(scene_dict)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -45,8 +46,67 @@ def test_run_shows_progress_and_summary_in_a_subprocess(tmp_path):
     scene.write_text(json.dumps(BASE_SCENE))
     r = sphfluid_cmd("run", scene)
     assert r.returncode == 0, r.stderr
-    assert "100 particles" in r.stderr and "100.0%" in r.stderr
-    assert "steps               50" in r.stdout
+    header, *bar = r.stderr.splitlines()
+    assert "100 particles" in header
+    # Not a terminal: each redraw a line of its own (at most one per 30 s), no
+    # carriage returns; the first at t = 0, the last at the end.
+    assert "\r" not in r.stderr and len(bar) == 2, r.stderr
+    assert bar[0].startswith("  0%|") and "t = 0.0000/0.05 s" in bar[0]
+    assert bar[1].startswith("100%|") and "t = 0.0500/0.05 s" in bar[1]
+    assert re.search(r"dt 0\.001 s, [\d,]+ steps/s\]$", bar[1]), bar[1]
+    assert "steps               50" in r.stdout and "%|" not in r.stdout
+
+
+# 0 columns: a terminal whose size was never set (drawn 80 wide)
+@pytest.mark.parametrize("columns", [100, 0])
+def test_run_redraws_progress_in_place_on_a_terminal(columns):
+    pty = pytest.importorskip("pty")
+    import fcntl
+    import struct
+    import termios
+
+    master, terminal = pty.openpty()
+    fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    # 1,500 steps of the seed's dam break: about half a second
+    p = subprocess.Popen([sys.executable, "-m", "sphfluid", "run", str(SCENES[0]),
+                          "--duration", "0.3"],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=terminal)
+    os.close(terminal)
+    seen = b""
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # the child closed its end
+            break
+        if not data:
+            break
+        seen += data
+    out = p.communicate(timeout=300)[0]
+    os.close(master)
+    assert p.returncode == 0, seen
+    text = seen.decode()
+    # A line redrawn in place: carriage returns, the header and the finished bar
+    # on lines of their own.
+    assert text.count("\r") >= 3, text
+    lines = text.replace("\r\n", "\n").split("\n")
+    assert len([x for x in lines if x.strip()]) == 2, text
+    last = lines[1].split("\r")[-1]
+    assert "t = 0.300/0.3 s" in last and last.startswith("100%|"), text
+    assert (columns or 80) - 2 <= len(last) <= (columns or 80), last  # the line's width
+    assert b"steps               1,500" in out
+
+
+def test_progress_goes_to_stderr_and_quiet_leaves_it_out(tmp_path, capsys):
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    assert main(["run", str(scene)]) == 0
+    out, err = capsys.readouterr()
+    assert "100%|" in err and "t = 0.0500/0.05 s" in err and "steps/s]" in err
+    assert "%|" not in out
+    assert main(["run", str(scene), "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert "%|" not in err and "t = 0.0500/" not in err and "%|" not in out
+    assert "steps               50" in out
 
 
 @pytest.mark.parametrize("content,message", [

@@ -101,6 +101,7 @@ def _add_record(sub) -> None:
                      default="speed")
     rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
     rec.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    rec.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _add_bench(sub) -> None:
@@ -357,7 +358,7 @@ class _Run:
     CHUNK = 25  # steps between progress and density samples
 
     def __init__(self, args, sim, duration: float):
-        from .simulation import _ProgressBar
+        from .progress import Progress
 
         self.sim = sim
         self.out: Path | None = args.out
@@ -376,7 +377,7 @@ class _Run:
         self.checkpoint_times = set(multiples(args.checkpoint_every))
         if args.checkpoint_every is not None:
             self.checkpoint_times.add(duration)
-        self.bar = None if args.quiet else _ProgressBar(duration - start, sim.step_count)
+        self.bar = None if args.quiet else Progress(duration, start, sim.step_count)
         self.start, self.first_step = start, sim.step_count
         self.checkpoint_time: float | None = None  # of the last checkpoint written
         self.frames = 0
@@ -428,7 +429,7 @@ class _Run:
             self.max_err = max(self.max_err, st["max_density_error"])
             self.max_comp = max(self.max_comp, st["max_compression"])
             if self.bar:
-                self.bar.update(sim.time - self.start, sim)
+                self.bar.update(sim.time, sim)
             if steps < self.CHUNK:
                 return
 
@@ -514,16 +515,21 @@ def _view(args) -> int:
 
 
 def _record(args) -> int:
-    from .simulation import _ProgressBar
+    from .progress import Progress
     from .viewer import record
 
     size = _size(args.size)
     if size is None:
         return EXIT_BAD_INPUT
-    bar = _ProgressBar(1.0)
+    bar = None
 
     def progress(done, total, sim):
-        bar.update(done / total, sim)
+        nonlocal bar
+        if args.quiet:
+            return
+        if bar is None:  # frames at k / fps, k = 0 .. total - 1
+            bar = Progress((total - 1) / args.fps)
+        bar.update(sim.time, sim)
 
     try:
         n = record(args.scene, args.out, duration=args.duration, fps=args.fps, mode=args.mode,
@@ -531,6 +537,8 @@ def _record(args) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    bar.close()
+    finally:
+        if bar is not None:
+            bar.close()
     print(f"wrote {n} frames to {args.out}")
     return 0

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
-import time as _time
 from typing import Callable
 
 import numpy as np
@@ -185,8 +183,9 @@ class Simulation:
             every: float | None = None) -> None:
         """Advance by ``duration`` seconds (default: the scene's ``duration``).
 
-        progress: draw a progress bar on stderr. callback(sim) is called every
-        ``every`` seconds of simulated time (and at the end) when given.
+        progress: show progress over simulated time on stderr (tqdm,
+        sphfluid.progress). callback(sim) is called every ``every`` seconds of
+        simulated time (and at the end) when given.
         """
         if duration is None:
             duration = self.scene.duration
@@ -198,17 +197,23 @@ class Simulation:
             raise ValueError(f"every must be > 0, got {every}")
         start = self.time
         chunk = every if every else duration / 100
-        bar = _ProgressBar(duration, self.step_count) if progress else None
+        bar = None
+        if progress:
+            from .progress import Progress
+
+            bar = Progress(start + duration, start, self.step_count)
         k = 0
-        while k * chunk < duration * (1 - 1e-12):
-            k += 1
-            self.advance_to(start + min(k * chunk, duration))
+        try:
+            while k * chunk < duration * (1 - 1e-12):
+                k += 1
+                self.advance_to(start + min(k * chunk, duration))
+                if bar:
+                    bar.update(self.time, self)
+                if callback:
+                    callback(self)
+        finally:
             if bar:
-                bar.update(self.time - start, self)
-            if callback:
-                callback(self)
-        if bar:
-            bar.close()
+                bar.close()
 
     def compute_forces(self) -> None:
         """Density, pressure and acceleration for the current state; nothing moves."""
@@ -408,35 +413,3 @@ class Simulation:
             "energy_removed": self._solver.energy_removed,
             "surface_energy": self.surface_energy,  # J per m depth (wcsph with tension)
         }
-
-
-class _ProgressBar:
-    """A one-line progress bar over simulated time on stderr, redrawn at most
-    ten times a second (every five seconds when stderr is not a terminal)."""
-
-    def __init__(self, total: float, start_step: int = 0):
-        self.total = total if total > 0 else 1.0
-        self.start_step = start_step
-        self.start = _time.perf_counter()
-        self.last = 0.0
-        self.tty = sys.stderr.isatty()
-
-    def update(self, done: float, sim: Simulation) -> None:
-        now = _time.perf_counter()
-        finished = done >= self.total * (1 - 1e-9)
-        if now - self.last < (0.1 if self.tty else 5.0) and not finished:
-            return
-        self.last = now
-        frac = min(done / self.total, 1.0)
-        elapsed = now - self.start
-        eta = elapsed / frac - elapsed if frac > 0 else 0.0
-        bar = "#" * int(30 * frac)
-        line = (f"[{bar:<30}] {100 * frac:5.1f}%  t = {sim.time:.4f} s  dt = {sim.dt:.3g} s  "
-                f"{(sim.step_count - self.start_step) / max(elapsed, 1e-9):,.0f} steps/s  eta {eta:5.1f} s")
-        sys.stderr.write(("\r" if self.tty else "") + line + ("" if self.tty else "\n"))
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.tty:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
