@@ -70,6 +70,11 @@ def _add_run(sub) -> None:
     r.add_argument("--resume", type=Path, metavar="CHECKPOINT",
                    help="continue from a checkpoint written for this scene, to the same end "
                         "(frames continue in --out)")
+    r.add_argument("--log", type=Path, metavar="FILE",
+                   help="write health counters as JSON Lines (run.jsonl) at each frame and "
+                        "checkpoint time, or every hundredth of the run without --out: dt and "
+                        "its limiter, density error, energies, particles removed, retried "
+                        "steps, guard margins (docs/output.md); --resume appends")
     r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -264,14 +269,27 @@ def _run(args) -> int:
     refused = _prepare_run(args, scene, duration)
     if refused is not None:
         return refused
-    sim = Simulation(scene, threads=args.threads)
-    if args.resume is not None:
-        refused = _resume(args, sim, duration)
-        if refused is not None:
-            return refused
-    print(_run_header(args, sim, duration), file=sys.stderr)
-    run = _Run(args, sim, duration)
-    run.to_end()
+    log = None
+    if args.log is not None:
+        from .runlog import RunLog
+
+        try:  # a resumed run goes on in the log of the run it continues
+            log = RunLog(args.log, append=args.resume is not None)
+        except OSError as e:
+            print(f"error: --log: cannot write {args.log}: {e.strerror or e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    try:
+        sim = Simulation(scene, threads=args.threads)
+        if args.resume is not None:
+            refused = _resume(args, sim, duration)
+            if refused is not None:
+                return refused
+        print(_run_header(args, sim, duration), file=sys.stderr)
+        run = _Run(args, sim, duration, log)
+        run.to_end()
+    finally:
+        if log is not None:
+            log.close()
     _print_summary(run)
     return 0
 
@@ -352,12 +370,18 @@ class _Run:
     time and the end (the times that shape an adaptive run's path, so a run
     resumed from a checkpoint with the same options continues bit for bit),
     samples the density error and draws progress every CHUNK steps between
-    them, writes the frames and checkpoints, warns of retried steps and, on a
-    blow-up, saves the last good state."""
+    them, writes the frames, checkpoints and log lines, warns of retried steps
+    and, on a blow-up, saves the last good state.
+
+    The log (a RunLog, or None) gets a line at the start and at every landing;
+    without frames, whose times are the run's output times, also at the first
+    sample at or past each hundredth of the run. It adds no landing, so a run
+    logs without changing its path."""
 
     CHUNK = 25  # steps between progress and density samples
+    LOG_PARTS = 100  # without --out, log at least every 1/LOG_PARTS of the run (at samples)
 
-    def __init__(self, args, sim, duration: float):
+    def __init__(self, args, sim, duration: float, log=None):
         from .progress import Progress
 
         self.sim = sim
@@ -379,6 +403,7 @@ class _Run:
             self.checkpoint_times.add(duration)
         self.bar = None if args.quiet else Progress(duration, start, sim.step_count)
         self.start, self.first_step = start, sim.step_count
+        self.started = time.perf_counter()  # (to_end sets it again as it begins)
         self.checkpoint_time: float | None = None  # of the last checkpoint written
         self.frames = 0
         self.writer = None
@@ -389,15 +414,23 @@ class _Run:
             if start > 0 and self.frame_times:  # resumed: the frames before are there
                 self.writer.resume(min(self.frame_times.values()))
         st = sim.stats()
+        self.stats = st  # of the last sample
         self.max_err, self.max_comp = st["max_density_error"], st["max_compression"]
         self.particle_steps = 0
         self.retries_seen = 0
         self.wall = 0.0  # s
+        self.log = log
+        # without frames: a log line at the first sample at or past each multiple of this
+        self.log_every = None if self.out else duration / self.LOG_PARTS
+        self.next_log = start
+        if log is not None:
+            log.write_metadata(sim)
 
     def to_end(self) -> None:
-        start = time.perf_counter()
+        self.started = time.perf_counter()
         if self.out and self.start == 0:
             self.write_frame()
+        self.write_log()
         for target in sorted({*self.frame_times, *self.checkpoint_times, self.duration}):
             self.advance_to(target)
             if target in self.frame_times:
@@ -405,9 +438,10 @@ class _Run:
             if target in self.checkpoint_times:
                 self.sim.save_state(self.out / "checkpoint.npz")
                 self.checkpoint_time = self.sim.time
+            self.write_log()
         if self.bar:
             self.bar.close()
-        self.wall = time.perf_counter() - start
+        self.wall = time.perf_counter() - self.started
 
     def advance_to(self, target: float) -> None:
         """To target, sampling every CHUNK steps."""
@@ -418,20 +452,38 @@ class _Run:
             n_before = sim.n_particles
             try:
                 steps = sim.advance_to(target, max_steps=self.CHUNK)
-            except InstabilityError:
+            except InstabilityError as e:
                 if self.bar:
                     self.bar.close()
+                if self.log is not None:  # the last good state, and what tripped
+                    self.write_log(sim.stats(), instability=str(e))
                 self.save_last_good_state()
                 raise
             self.warn_of_retries()
             self.particle_steps += steps * n_before
-            st = sim.stats()
+            st = self.stats = sim.stats()
             self.max_err = max(self.max_err, st["max_density_error"])
             self.max_comp = max(self.max_comp, st["max_compression"])
             if self.bar:
                 self.bar.update(sim.time, sim)
+            if (self.log_every is not None and self.log is not None
+                    and sim.time >= self.next_log and not sim._reached(target)):
+                self.write_log()  # (a landing writes its own line)
             if steps < self.CHUNK:
                 return
+
+    def write_log(self, stats: dict | None = None, **extra) -> None:
+        """A line of the log (if any) for the state of the last sample (or stats)."""
+        if self.log is None:
+            return
+        from .runlog import health
+
+        sim = self.sim
+        self.log.write({**health(sim, stats or self.stats),
+                        "wall_time": time.perf_counter() - self.started, **extra})
+        if self.log_every is not None:  # the next multiple of log_every past now
+            k = math.floor(sim.time / self.log_every * (1 + 1e-12)) + 1
+            self.next_log = k * self.log_every * (1 - 1e-12)
 
     def write_frame(self) -> None:
         self.writer.write(self.sim)

@@ -178,6 +178,13 @@ class Simulation:
         self.step(n)
         return n
 
+    def _reached(self, t_end: float) -> bool:
+        """Whether advance_to(t_end) would take no step: the run is at t_end (or,
+        with fixed steps, at the first step at or past it)."""
+        if self.adaptive:  # as Solver::advance_adaptive stops
+            return not t_end - self.time > 1e-12 * max(1.0, abs(t_end))
+        return math.ceil((t_end - self.time) / self.scene.time_step - 1e-9) <= 0
+
     def run(self, duration: float | None = None, progress: bool = False,
             callback: Callable[[Simulation], None] | None = None,
             every: float | None = None) -> None:
