@@ -42,7 +42,7 @@ BYTES_PER_PARTICLE = 512  # state, sort scratch, neighbour lists, set-up tempora
 MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 
 _TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "fluid_regions",
-             "walls", "solver", "duration")
+             "walls", "solver", "duration", "probes")
 _DOMAIN_KEYS = ("min", "max", "periodic")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
                "speed_of_sound", "artificial_viscosity", "background_pressure")
@@ -175,6 +175,7 @@ class Scene:
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
+    probes: Any = None  # probes.Probes: measurement probes (extension), or None
     source: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -263,6 +264,8 @@ class Scene:
             out["solver"]["shifting"] = self.shifting
         if self.duration is not None:
             out["duration"] = self.duration
+        if self.probes is not None:
+            out["probes"] = self.probes.to_dict()
         return out
 
 
@@ -406,6 +409,12 @@ class _Validator:
                               and solver.density == "continuity")
         regions = self.regions(d)
         duration = self.number_at(d, "duration", "", low=0)
+        probes = None
+        if "probes" in d:
+            from .probes import read_probes
+
+            n_segments = None if any(p.startswith("walls") for p in self.problems) else len(walls)
+            probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
 
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
@@ -429,7 +438,7 @@ class _Validator:
                       artificial_viscosity=fluid.alpha, periodic=domain.periodic,
                       background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
                       density=solver.density, density_diffusion=solver.density_diffusion,
-                      shifting=solver.shifting, source=self.source)
+                      shifting=solver.shifting, probes=probes, source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
         self.raise_problems()
         return scene

@@ -1,0 +1,286 @@
+"""Measurement probes: the scene's ``"probes"`` (an extension of the format).
+
+Three kinds, each sampled from the particles by SPH interpolation with the
+Wendland C2 kernel of the run's support h, volumes m / rho_j and Shepard
+normalisation (docs/output.md, "Probes"):
+
+- points: pressure, velocity and density at a fixed point;
+- surface: the free-surface height along a vertical line x = X;
+- walls: the pressure force of the fluid on a group of wall segments, per
+  metre of depth.
+
+``sample(sim, probes)`` returns one dict of values for the current state.
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+# Below this kernel sum sum_j V_j W(x - x_j) a point has too little fluid around it
+# for an interpolated value: it is in air, or at the outer edge of a free surface
+# (a flat surface's sum is 0.5 on the surface itself).
+MIN_KERNEL_SUM = 0.5
+# Query points times particles per block of the brute-force interpolation.
+_BLOCK = 2_000_000
+
+_PROBES_KEYS = ("points", "surface", "walls", "every")
+_POINT_KEYS = ("name", "at")
+_SURFACE_KEYS = ("name", "x")
+_WALL_KEYS = ("name", "segments")
+POINT_COLUMNS = ("p", "u", "v", "rho")  # Pa, m/s, m/s, kg/m^3
+SURFACE_COLUMNS = ("height",)  # m
+WALL_COLUMNS = ("fx", "fy")  # N/m
+
+
+@dataclass(frozen=True)
+class PointProbe:
+    name: str
+    at: tuple  # (x, y), m
+
+
+@dataclass(frozen=True)
+class SurfaceProbe:
+    name: str
+    x: float  # the vertical line x = X, m
+
+
+@dataclass(frozen=True)
+class WallProbe:
+    name: str
+    segments: tuple  # indices into Scene.walls (polylines counted segment by segment)
+
+
+@dataclass(frozen=True)
+class Probes:
+    points: tuple = ()  # of PointProbe
+    surface: tuple = ()  # of SurfaceProbe
+    walls: tuple = ()  # of WallProbe
+    every: float | None = None  # s between rows; None: the run's frame interval
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {}
+        if self.points:
+            out["points"] = [{"name": p.name, "at": list(p.at)} for p in self.points]
+        if self.surface:
+            out["surface"] = [{"name": s.name, "x": s.x} for s in self.surface]
+        if self.walls:
+            out["walls"] = [{"name": w.name, "segments": list(w.segments)} for w in self.walls]
+        if self.every is not None:
+            out["every"] = self.every
+        return out
+
+    def columns(self) -> list[str]:
+        """The CSV's columns after ``time``: name.quantity."""
+        cols = [f"{p.name}.{q}" for p in self.points for q in POINT_COLUMNS]
+        cols += [f"{s.name}.{q}" for s in self.surface for q in SURFACE_COLUMNS]
+        cols += [f"{w.name}.{q}" for w in self.walls for q in WALL_COLUMNS]
+        return cols
+
+
+# --------------------------------------------------------------------------- validation
+
+def read_probes(v, raw: Any, lo, hi, n_segments: int | None) -> Probes | None:
+    """The scene's "probes", checked with the scene validator ``v`` (its problems
+    named by JSON path); lo, hi: the domain's corners (None after a problem);
+    n_segments: the walls' segment count (None after a problem)."""
+    if (obj := v.obj(raw, "probes")) is None:
+        return None
+    n_before = len(v.problems)
+    v.keys(obj, _PROBES_KEYS, "probes.")
+    names: dict[str, str] = {}  # name -> the path of the probe that has it
+
+    def items(key: str, allowed: Sequence[str]):
+        raw_list = obj.get(key, [])
+        if not isinstance(raw_list, list):
+            v.fail(f"probes.{key}", f"expected a list, got {_kind(raw_list)}")
+            return
+        for i, item in enumerate(raw_list):
+            path = f"probes.{key}[{i}]"
+            if (item := v.obj(item, path)) is None:
+                continue
+            v.keys(item, allowed, f"{path}.")
+            name = item.get("name")
+            if "name" not in item:
+                v.missing(f"{path}.name")
+            elif not isinstance(name, str) or not name.strip():
+                v.fail(f"{path}.name", f"expected a non-empty string, got {_kind(name)}")
+            elif any(c in name for c in ',"\n\r'):
+                v.fail(f"{path}.name", "must not contain commas, quotes or line breaks "
+                       "(it names CSV columns)")
+            elif name in names:
+                v.fail(f"{path}.name", f"{json.dumps(name)} is already the name of "
+                       f"{names[name]}; probe names must be unique")
+            else:
+                names[name] = path
+            yield path, item, name
+
+    points = []
+    for path, item, name in items("points", _POINT_KEYS):
+        at = v.point_at(item, "at", f"{path}.", required=True)
+        if at and lo and hi and not (lo[0] <= at[0] <= hi[0] and lo[1] <= at[1] <= hi[1]):
+            v.fail(f"{path}.at", f"{list(at)} is outside the domain (min {list(lo)}, "
+                   f"max {list(hi)})")
+        points.append(PointProbe(name, at))
+    surface = []
+    for path, item, name in items("surface", _SURFACE_KEYS):
+        x = v.number_at(item, "x", f"{path}.", required=True)
+        if x is not None and lo and hi and not lo[0] <= x <= hi[0]:
+            v.fail(f"{path}.x", f"{x:g} is outside the domain ({lo[0]:g} to {hi[0]:g})")
+        surface.append(SurfaceProbe(name, x))
+    walls = []
+    for path, item, name in items("walls", _WALL_KEYS):
+        segs = item.get("segments")
+        if "segments" not in item:
+            v.missing(f"{path}.segments", "indices of the scene's wall segments, a "
+                      "polyline counting one per segment")
+            segs = []
+        elif not isinstance(segs, list) or not segs:
+            v.fail(f"{path}.segments", f"expected a non-empty list of segment indices, "
+                   f"got {_kind(segs)}")
+            segs = []
+        for j, s in enumerate(segs):
+            if isinstance(s, bool) or not isinstance(s, int):
+                v.fail(f"{path}.segments[{j}]", f"expected a segment index, got {_kind(s)}")
+            elif n_segments is not None and not 0 <= s < n_segments:
+                v.fail(f"{path}.segments[{j}]", f"no segment {s}: the walls have "
+                       f"{n_segments} segment(s), numbered from 0 (a polyline counts one "
+                       "per segment)")
+            elif segs.index(s) != j:
+                v.fail(f"{path}.segments[{j}]", f"segment {s} is listed twice")
+        walls.append(WallProbe(name, tuple(s for s in segs if isinstance(s, int))))
+    every = v.number_at(obj, "every", "probes.", low=0)
+    if len(v.problems) > n_before:
+        return None
+    if not (points or surface or walls):
+        v.fail("probes", 'has no probe: give "points", "surface" or "walls"')
+        return None
+    return Probes(tuple(points), tuple(surface), tuple(walls), every)
+
+
+def _kind(value: Any) -> str:
+    from .scene import _kind as kind
+
+    return kind(value)
+
+
+# --------------------------------------------------------------------------- sampling
+
+def wendland(r: np.ndarray, h: float) -> np.ndarray:
+    """The Wendland C2 kernel in 2D with support h: 7/(pi h^2) (1 - q)^4 (1 + 4q), q = r/h."""
+    q = np.minimum(r / h, 1.0)
+    return 7.0 / (np.pi * h * h) * (1.0 - q) ** 4 * (1.0 + 4.0 * q)
+
+
+class _Field:
+    """The particles' state, interpolated at query points."""
+
+    def __init__(self, sim):
+        self.pos = np.asarray(sim.positions, float)
+        self.vel = np.asarray(sim.velocities, float)
+        self.rho = np.asarray(sim.densities, float)
+        self.p = np.asarray(sim.pressures, float)
+        self.vol = sim.particle_mass / self.rho  # m^2 per m of depth
+        self.h = float(sim.smoothing_length)
+
+    def at(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(kernel sum (n,), Shepard-normalised [p, u, v, rho] (n, 4)) at points (n, 2);
+        the values are NaN where the kernel sum is below MIN_KERNEL_SUM."""
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        n, h = len(pts), self.h
+        total = np.zeros(n)
+        sums = np.zeros((n, 4))
+        if n and len(self.pos):
+            lo, hi = pts.min(0) - h, pts.max(0) + h  # the particles that can be in reach
+            near = np.flatnonzero(np.all((self.pos >= lo) & (self.pos <= hi), axis=1))
+            pos = self.pos[near]
+            vals = np.column_stack([self.p[near], self.vel[near], self.rho[near]])
+            vol = self.vol[near]
+            step = max(1, _BLOCK // max(len(near), 1))
+            for a in range(0, n, step):
+                d = pts[a:a + step, None, :] - pos[None, :, :]
+                w = wendland(np.sqrt((d * d).sum(-1)), h) * vol
+                total[a:a + step] = w.sum(1)
+                sums[a:a + step] = w @ vals
+        with np.errstate(invalid="ignore", divide="ignore"):
+            values = sums / total[:, None]
+        values[total < MIN_KERNEL_SUM] = np.nan
+        return total, values
+
+
+def _surface_height(field: _Field, x: float, y0: float, y1: float, dx: float) -> float:
+    """The highest y on x = X where the kernel sum crosses MIN_KERNEL_SUM from
+    above, linearly interpolated between samples dx/4 apart; NaN with no fluid."""
+    ys = np.linspace(y0, y1, max(2, int(math.ceil((y1 - y0) / (dx / 4))) + 1))
+    c, _ = field.at(np.column_stack([np.full_like(ys, x), ys]))
+    inside = c >= MIN_KERNEL_SUM
+    if not inside.any():
+        return math.nan
+    k = int(np.flatnonzero(inside)[-1])
+    if k == len(ys) - 1:
+        return float(ys[-1])  # fluid up to the top of the domain
+    t = (c[k] - MIN_KERNEL_SUM) / (c[k] - c[k + 1])
+    return float(ys[k] + t * (ys[k + 1] - ys[k]))
+
+
+def _wall_force(field: _Field, segments: np.ndarray, dx: float) -> tuple[float, float]:
+    """The pressure force (N/m) of the fluid on the segments ((m, 2, 2), m):
+    F = -sum over both sides of the integral of p_wall n ds, n the side's
+    normal, pointing into the fluid. p_wall at each station (midpoints of
+    pieces about dx/2 long) is extrapolated linearly to the wall from the
+    Shepard pressures h/2 and h off it along n: 2 p(h/2) - p(h). A side whose
+    sample at h/2 is in air (kernel sum below MIN_KERNEL_SUM) has no fluid and
+    adds nothing; where only the sample at h is (a film thinner than h), p(h/2)
+    is taken as it is."""
+    h = field.h
+    fx = fy = 0.0
+    for a, b in segments:
+        t = b - a
+        length = float(np.hypot(*t))
+        pieces = max(1, int(math.ceil(length / (dx / 2))))
+        s = (np.arange(pieces) + 0.5) / pieces
+        stations = a + s[:, None] * t
+        normal = np.array([-t[1], t[0]]) / length
+        for n in (normal, -normal):
+            _, near = field.at(stations + 0.5 * h * n)
+            _, far = field.at(stations + h * n)
+            p_near, p_far = near[:, 0], far[:, 0]
+            p_wall = np.where(np.isnan(p_far), p_near, 2.0 * p_near - p_far)
+            force = -np.nansum(p_wall) * (length / pieces)  # along n
+            fx += force * n[0]
+            fy += force * n[1]
+    return fx, fy
+
+
+def sample(sim, probes: Probes | None = None) -> dict[str, float]:
+    """The probes' values for sim's current state: {"time": t, "name.quantity": value}
+    in the order of ``Probes.columns()``; probes default to the scene's.
+
+    Points: p (Pa), u, v (m/s), rho (kg/m^3), NaN where the kernel sum is
+    below MIN_KERNEL_SUM (air, or the edge of a free surface). Surface:
+    height (m), NaN with no fluid on the line. Walls: fx, fy (N/m), the
+    pressure force of the fluid on the group (no viscous part)."""
+    probes = probes if probes is not None else sim.scene.probes
+    out: dict[str, float] = {"time": float(sim.time)}
+    if probes is None:
+        return out
+    field = _Field(sim)
+    scene = sim.scene
+    if probes.points:
+        _, vals = field.at(np.array([p.at for p in probes.points], float))
+        for p, row in zip(probes.points, vals):
+            for q, x in zip(POINT_COLUMNS, row):
+                out[f"{p.name}.{q}"] = float(x)
+    for s in probes.surface:
+        out[f"{s.name}.height"] = _surface_height(field, s.x, scene.domain_min[1],
+                                                  scene.domain_max[1], scene.spacing)
+    if probes.walls:
+        walls = np.asarray(sim.walls, float).reshape(-1, 2, 2)
+        for w in probes.walls:
+            fx, fy = _wall_force(field, walls[list(w.segments)], scene.spacing)
+            out[f"{w.name}.fx"], out[f"{w.name}.fy"] = float(fx), float(fy)
+    return out

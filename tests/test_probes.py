@@ -1,0 +1,169 @@
+"""Measurement probes: the scene's "probes" and their values against the hydrostatic
+tank."""
+from __future__ import annotations
+
+import copy
+import json
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+import sphfluid
+from conftest import ROOT
+from sphfluid import probes as pr
+from sphfluid.simulation import Simulation
+
+TANK = json.loads((ROOT / "scenes" / "water" / "hydrostatic.json").read_text())
+H = 1.0  # the tank's fill height, m
+RHO0, G = 1000.0, 9.81
+# the tank's polyline: segment 0 the left wall, 1 the floor, 2 the right wall
+TANK_PROBES = {
+    "points": [{"name": "low", "at": [0.5, 0.025]}, {"name": "mid", "at": [0.5, 0.25]},
+               {"name": "high", "at": [0.3, 0.75]}, {"name": "air", "at": [0.5, 1.3]}],
+    "surface": [{"name": "h_mid", "x": 0.5}, {"name": "h_side", "x": 0.05},
+                {"name": "h_out", "x": 1.05}],
+    "walls": [{"name": "floor", "segments": [1]}, {"name": "left", "segments": [0]},
+              {"name": "tank", "segments": [0, 1, 2]}],
+}
+
+
+def tank(probes=None) -> dict:
+    d = copy.deepcopy(TANK)
+    d["probes"] = copy.deepcopy(probes if probes is not None else TANK_PROBES)
+    return d
+
+
+@pytest.fixture(scope="module")
+def at_rest():
+    """The water tank after 0.5 s, and its probes' values."""
+    sim = Simulation(tank())
+    sim.advance_to(0.5)
+    return sim, pr.sample(sim)
+
+
+# --------------------------------------------------------------------------- the scene
+
+def test_probes_load_and_round_trip():
+    scene = sphfluid.load_scene(tank({**TANK_PROBES, "every": 0.02}))
+    assert [p.name for p in scene.probes.points] == ["low", "mid", "high", "air"]
+    assert scene.probes.walls[2].segments == (0, 1, 2) and scene.probes.every == 0.02
+    again = sphfluid.load_scene(json.loads(json.dumps(scene.to_dict())))
+    assert again == scene and again.probes == scene.probes
+    assert sphfluid.load_scene(TANK).probes is None
+    assert "probes" not in sphfluid.load_scene(TANK).to_dict()
+
+
+@pytest.mark.parametrize("probes, problem", [
+    ({"pionts": []}, 'probes.pionts: unknown key (did you mean "points"?)'),
+    ({"points": [{"name": "a", "at": [0.5, 2.0]}]}, "probes.points[0].at: [0.5, 2.0] is "
+     "outside the domain"),
+    ({"points": [{"name": "a", "at": [0.5]}]}, "probes.points[0].at: expected [x, y]"),
+    ({"points": [{"at": [0.5, 0.5]}]}, "probes.points[0].name: required key is missing"),
+    ({"points": [{"name": "a", "at": [0.5, 0.5]}], "surface": [{"name": "a", "x": 0.5}]},
+     'probes.surface[0].name: "a" is already the name of probes.points[0]'),
+    ({"points": [{"name": "a,b", "at": [0.5, 0.5]}]}, "probes.points[0].name: must not "
+     "contain commas"),
+    ({"surface": [{"name": "s", "x": 2.0}]}, "probes.surface[0].x: 2 is outside the domain"),
+    ({"walls": [{"name": "w", "segments": [3]}]}, "probes.walls[0].segments[0]: no segment 3: "
+     "the walls have 3 segment(s)"),
+    ({"walls": [{"name": "w", "segments": [1, 1]}]}, "probes.walls[0].segments[1]: segment 1 "
+     "is listed twice"),
+    ({"walls": [{"name": "w", "segments": [0.5]}]}, "probes.walls[0].segments[0]: expected a "
+     "segment index"),
+    ({"walls": [{"name": "w", "segments": []}]}, "probes.walls[0].segments: expected a "
+     "non-empty list"),
+    ({"points": [{"name": "a", "at": [0.5, 0.5]}], "every": 0}, "probes.every: must be > 0"),
+    ({}, "probes: has no probe"),
+    ([], "probes: expected an object"),
+])
+def test_bad_probes_are_refused_with_their_json_path(probes, problem):
+    with pytest.raises(sphfluid.SceneError) as e:
+        sphfluid.load_scene(tank(probes))
+    assert any(p.startswith(problem) for p in e.value.problems), e.value.problems
+
+
+def test_schema_lists_the_probe_keys_the_loader_accepts():
+    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text())
+    props = schema["properties"]["probes"]["properties"]
+    assert set(props) == set(pr._PROBES_KEYS)
+    assert set(props["points"]["items"]["properties"]) == set(pr._POINT_KEYS)
+    assert set(props["surface"]["items"]["properties"]) == set(pr._SURFACE_KEYS)
+    assert set(props["walls"]["items"]["properties"]) == set(pr._WALL_KEYS)
+
+
+# --------------------------------------------------------------------------- the values
+
+def test_kernel_is_the_wendland_c2_and_sums_to_one_on_the_lattice():
+    from reference import wendland
+
+    h = 0.075
+    r = np.linspace(0.0, 0.1, 41)
+    np.testing.assert_allclose(pr.wendland(r, h), wendland(r, h), rtol=1e-14, atol=0)
+    dx = 0.025
+    i = np.arange(-5, 6)
+    x, y = np.meshgrid(i * dx, i * dx)
+    assert (pr.wendland(np.hypot(x, y), h) * dx * dx).sum() == pytest.approx(1.0, abs=0.01)
+
+
+@pytest.mark.parametrize("name", ["low", "mid", "high"])
+def test_point_pressure_in_the_tank_at_rest_is_hydrostatic(at_rest, name):
+    """rho0 g (H - y), within 1 % of rho0 g H (measured at t = 0.5 s: under 0.2 %; the
+    tank's acoustic sloshing moves it by about 1 % between frames). A point one spacing
+    deeper or shallower is 2.5 % off; "low", one spacing above the floor, is 10 % low
+    without the Shepard normalisation (its kernel sum is 0.9)."""
+    sim, values = at_rest
+    probe = next(p for p in sim.scene.probes.points if p.name == name)
+    expected = RHO0 * G * (H - probe.at[1])
+    assert abs(values[f"{name}.p"] - expected) < 0.01 * RHO0 * G * H
+    assert values[f"{name}.rho"] == pytest.approx(RHO0, rel=0.01)
+    assert abs(values[f"{name}.u"]) < 0.01 and abs(values[f"{name}.v"]) < 0.01
+
+
+def test_point_in_air_is_nan(at_rest):
+    _, values = at_rest
+    assert all(math.isnan(values[f"air.{q}"]) for q in ("p", "u", "v", "rho"))
+
+
+def test_surface_height_is_the_fill_height(at_rest):
+    """Within a quarter of a spacing (measured: 1e-4 m); NaN on a line with no fluid."""
+    sim, values = at_rest
+    dx = sim.scene.spacing
+    assert values["h_mid.height"] == pytest.approx(H, abs=dx / 4)
+    assert values["h_side.height"] == pytest.approx(H, abs=dx / 4)  # beside the wall
+    assert math.isnan(values["h_out.height"])
+
+
+def test_floor_force_is_the_weight_of_the_water(at_rest):
+    """The floor carries the weight per metre, m n g, downwards: within 1.5 %
+    (measured at t = 0.5 s: 0.03 %; the sloshing moves it by about 1.3 %). The left
+    wall is pushed outwards by rho0 g H^2 / 2; the tank as a whole, by the weight."""
+    sim, values = at_rest
+    weight = sim.particle_mass * sim.n_particles * G
+    assert values["floor.fy"] == pytest.approx(-weight, rel=0.015)
+    assert abs(values["floor.fx"]) < 1e-6 * weight
+    assert values["left.fx"] == pytest.approx(-RHO0 * G * H**2 / 2, rel=0.02)
+    assert abs(values["left.fy"]) < 1e-6 * weight
+    assert values["tank.fy"] == pytest.approx(values["floor.fy"], rel=1e-12)
+    assert abs(values["tank.fx"]) < 1e-3 * weight
+
+
+def test_wall_force_counts_the_fluid_on_both_sides():
+    """A plate across the middle of a tank full on both sides feels no net force; with
+    the water on one side, the force points away from it."""
+    d = tank({"walls": [{"name": "plate", "segments": [3]}]})
+    d["walls"].append([[0.2, 0.5], [0.8, 0.5]])
+    sim = Simulation(d)
+    values = pr.sample(sim)
+    assert abs(values["plate.fy"]) < 0.02 * RHO0 * G * 0.5 * 0.6
+    one_side = pr.sample(sim, pr.Probes(walls=(pr.WallProbe("floor", (1,)),)))
+    assert one_side["floor.fy"] < 0 and set(one_side) == {"time", "floor.fx", "floor.fy"}
+
+
+def test_sample_is_deterministic_and_leaves_the_state_alone(at_rest):
+    sim, values = at_rest
+    before = sim.positions.copy()
+    again = pr.sample(sim)
+    assert json.dumps(again) == json.dumps(values)
+    np.testing.assert_array_equal(sim.positions, before)
+    assert list(again) == ["time", *sim.scene.probes.columns()]
