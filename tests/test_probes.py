@@ -1,5 +1,5 @@
-"""Measurement probes: the scene's "probes" and their values against the hydrostatic
-tank."""
+"""Measurement probes: the scene's "probes", their values against the hydrostatic
+tank, and probes.csv of `sphfluid run --out`."""
 from __future__ import annotations
 
 import copy
@@ -12,6 +12,8 @@ import pytest
 import sphfluid
 from conftest import ROOT
 from sphfluid import probes as pr
+from sphfluid.metadata import scene_hash
+from sphfluid.cli import main
 from sphfluid.simulation import Simulation
 
 TANK = json.loads((ROOT / "scenes" / "water" / "hydrostatic.json").read_text())
@@ -167,3 +169,77 @@ def test_sample_is_deterministic_and_leaves_the_state_alone(at_rest):
     assert json.dumps(again) == json.dumps(values)
     np.testing.assert_array_equal(sim.positions, before)
     assert list(again) == ["time", *sim.scene.probes.columns()]
+
+
+# --------------------------------------------------------------------------- probes.csv
+
+def run(tmp_path, scene: dict, *args, out="out") -> int:
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    return main(["run", str(path), "--out", str(tmp_path / out), "--quiet", *map(str, args)])
+
+
+def test_csv_has_the_metadata_the_columns_and_a_row_per_probe_time(tmp_path, capsys):
+    probes = {**TANK_PROBES, "every": 0.05}
+    assert run(tmp_path, tank(probes), "--duration", 0.2, "--every", 0.1) == 0
+    assert "probes              5 rows" in capsys.readouterr().out
+    text = (tmp_path / "out" / "probes.csv").read_text()
+    assert text.startswith("# sphfluid probes: {")
+    meta, columns, rows = pr.read_csv(tmp_path / "out" / "probes.csv")
+    scene = sphfluid.load_scene(tank(probes))
+    assert meta["metadata"]["scene_hash"] == scene_hash(scene)
+    assert meta["metadata"]["method"] == "wcsph" and meta["every"] == 0.05
+    assert meta["probes"] == scene.probes.to_dict()
+    assert columns == ["time", "low.p", "low.u", "low.v", "low.rho", "mid.p", "mid.u", "mid.v",
+                       "mid.rho", "high.p", "high.u", "high.v", "high.rho", "air.p", "air.u",
+                       "air.v", "air.rho", "h_mid.height", "h_side.height", "h_out.height",
+                       "floor.fx", "floor.fy", "left.fx", "left.fy", "tank.fx", "tank.fy"]
+    # t = 0, then the first 25-step sample at or past 0.05 and 0.15, and the landings
+    # on the frames at 0.1 and 0.2
+    assert rows.shape == (5, len(columns))
+    t = rows[:, 0]
+    assert t[0] == 0 and t[2] == pytest.approx(0.1, abs=1e-12) and t[4] == pytest.approx(0.2)
+    assert 0.05 <= t[1] < 0.06 and 0.15 <= t[3] < 0.16
+    assert np.isnan(rows[:, columns.index("air.p")]).all()
+    assert rows[:, columns.index("floor.fy")] == pytest.approx(-9810.0, rel=0.03)
+
+
+def test_probes_do_not_change_the_run(tmp_path):
+    """Rows between the frames are written at the run's own samples: the final state
+    is bit for bit the state without probes."""
+    assert run(tmp_path, TANK, "--duration", 0.1, "--every", 0.05, out="plain") == 0
+    assert run(tmp_path, tank({**TANK_PROBES, "every": 0.02}), "--duration", 0.1,
+               "--every", 0.05, out="probed") == 0
+    assert not (tmp_path / "plain" / "probes.csv").exists()
+    a = np.load(tmp_path / "plain" / "frame_00002.npz")
+    b = np.load(tmp_path / "probed" / "frame_00002.npz")
+    for key in ("time", "positions", "velocities", "densities", "ids"):
+        np.testing.assert_array_equal(a[key], b[key])
+    _, _, rows = pr.read_csv(tmp_path / "probed" / "probes.csv")
+    # t = 0, the first 25-step sample (about 0.008 s apart) at or past 0.02, 0.04,
+    # 0.06 and 0.08, and the end
+    assert len(rows) == 6
+    k = np.arange(6)
+    assert (rows[:, 0] >= 0.02 * k - 1e-12).all() and (rows[:, 0] < 0.02 * k + 0.01).all()
+
+
+def test_resumed_run_appends_to_the_csv(tmp_path):
+    probes = {"points": [{"name": "mid", "at": [0.5, 0.25]}], "every": 0.05}
+    assert run(tmp_path, tank(probes), "--duration", 0.1, "--every", 0.05,
+               "--checkpoint-every", 0.1) == 0
+    csv = tmp_path / "out" / "probes.csv"
+    with open(csv, "a") as f:  # a row the stopped run wrote after its checkpoint
+        f.write("0.125,1,2,3,4\n")
+    assert run(tmp_path, tank(probes), "--duration", 0.2, "--every", 0.05, "--resume",
+               tmp_path / "out" / "checkpoint.npz") == 0
+    text = csv.read_text()
+    assert text.count("# sphfluid probes:") == 1 and text.count("time,") == 1
+    _, _, rows = pr.read_csv(csv)
+    np.testing.assert_allclose(rows[:, 0], [0, 0.05, 0.1, 0.15, 0.2], atol=1e-12)
+
+
+def test_run_without_out_says_the_probes_need_it(tmp_path, capsys):
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(tank()))
+    assert main(["run", str(path), "--duration", "0.01", "--quiet"]) == 0
+    assert "--out DIR only" in capsys.readouterr().err

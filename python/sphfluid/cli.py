@@ -285,6 +285,9 @@ def _run(args) -> int:
             if refused is not None:
                 return refused
         print(_run_header(args, sim, duration), file=sys.stderr)
+        if scene.probes is not None and args.out is None:
+            print("note: the scene's probes are written to DIR/probes.csv with --out DIR only",
+                  file=sys.stderr)
         run = _Run(args, sim, duration, log)
         run.to_end()
     finally:
@@ -425,12 +428,22 @@ class _Run:
         self.next_log = start
         if log is not None:
             log.write_metadata(sim)
+        # the scene's probes: a row of DIR/probes.csv at the first sample at or past
+        # each multiple of probes.every (default: the frame interval); no landing added
+        self.probes = None
+        if self.out and sim.scene.probes is not None:
+            from .probes import ProbeWriter
+
+            probes = sim.scene.probes
+            self.probes = ProbeWriter(self.out / "probes.csv", sim, probes,
+                                      probes.every or every, duration)
 
     def to_end(self) -> None:
         self.started = time.perf_counter()
         if self.out and self.start == 0:
             self.write_frame()
         self.write_log()
+        self.write_probes()
         for target in sorted({*self.frame_times, *self.checkpoint_times, self.duration}):
             self.advance_to(target)
             if target in self.frame_times:
@@ -441,6 +454,8 @@ class _Run:
             self.write_log()
         if self.bar:
             self.bar.close()
+        if self.probes is not None:
+            self.probes.close()
         self.wall = time.perf_counter() - self.started
 
     def advance_to(self, target: float) -> None:
@@ -466,6 +481,7 @@ class _Run:
             self.max_comp = max(self.max_comp, st["max_compression"])
             if self.bar:
                 self.bar.update(sim.time, sim)
+            self.write_probes()
             if (self.log_every is not None and self.log is not None
                     and sim.time >= self.next_log and not sim._reached(target)):
                 self.write_log()  # (a landing writes its own line)
@@ -484,6 +500,11 @@ class _Run:
         if self.log_every is not None:  # the next multiple of log_every past now
             k = math.floor(sim.time / self.log_every * (1 + 1e-12)) + 1
             self.next_log = k * self.log_every * (1 - 1e-12)
+
+    def write_probes(self) -> None:
+        """A row of probes.csv, if this sample is the first at or past a probe time."""
+        if self.probes is not None and self.probes.due(self.sim.time):
+            self.probes.write(self.sim)
 
     def write_frame(self) -> None:
         self.writer.write(self.sim)
@@ -537,6 +558,8 @@ def _print_summary(run: _Run) -> None:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
     if run.out:
         print(f"frames              {run.frames} in {run.out}{os.sep}")
+    if run.probes is not None:
+        print(f"probes              {run.probes.rows} rows in {run.probes.path}")
     if run.checkpoint_time is not None:
         print(f"checkpoint          {run.out / 'checkpoint.npz'} (t = {run.checkpoint_time:.6g} s; "
               "sphfluid run SCENE --resume it)")

@@ -9,7 +9,8 @@ normalisation (docs/output.md, "Probes"):
 - walls: the pressure force of the fluid on a group of wall segments, per
   metre of depth.
 
-``sample(sim, probes)`` returns one dict of values for the current state.
+``sample(sim, probes)`` returns one dict of values for the current state;
+``ProbeWriter`` appends them as rows of a CSV file while a run goes.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -284,3 +286,89 @@ def sample(sim, probes: Probes | None = None) -> dict[str, float]:
             fx, fy = _wall_force(field, walls[list(w.segments)], scene.spacing)
             out[f"{w.name}.fx"], out[f"{w.name}.fy"] = float(fx), float(fy)
     return out
+
+
+# --------------------------------------------------------------------------- the CSV
+
+def probe_times(every: float, start: float, duration: float) -> list[float]:
+    """The multiples of every in [start, duration] (start included only at t = 0)."""
+    n = int(duration / every + 1e-9)
+    return [t for k in range(0, n + 1) if (t := round(every * k, 12)) > start * (1 + 1e-12)
+            or (start == 0 and k == 0)]
+
+
+class ProbeWriter:
+    """DIR/probes.csv of a run: comment lines ("# ") with the run metadata and the
+    probes, the column names, then a row per probe time, flushed as written.
+
+    ``due(t)``: whether the sample at simulated time t is the first at or past
+    the next probe time; ``write(sim)`` writes its row. Resumed (start > 0), the
+    file's rows after start are dropped and rows are appended."""
+
+    def __init__(self, path: Path, sim, probes: Probes, every: float, duration: float):
+        from .metadata import run_metadata
+        from .output import replacing
+
+        self.path = Path(path)
+        self.probes = probes
+        self.columns = ["time", *probes.columns()]
+        start = float(sim.time)
+        self.times = probe_times(every, start, duration)
+        self.next = 0  # index into times of the next row due
+        self.rows = 0  # written by this run
+        if start > 0 and self.path.is_file():
+            kept = [line for line in self.path.read_text(encoding="utf-8").splitlines(True)
+                    if line.startswith("#") or line.startswith("time,")
+                    or _row_time(line) <= start * (1 + 1e-12)]
+            with replacing(self.path) as tmp:
+                tmp.write_text("".join(kept), encoding="utf-8")
+            self.file = open(self.path, "a", encoding="utf-8")  # noqa: SIM115
+        else:
+            self.file = open(self.path, "w", encoding="utf-8")  # noqa: SIM115
+            self.file.write(f"# sphfluid probes: {json.dumps(run_metadata(sim))}\n")
+            self.file.write(f"# probes: {json.dumps(probes.to_dict())}\n")
+            self.file.write(f"# every: {every!r} s\n")
+            self.file.write(",".join(self.columns) + "\n")
+            self.file.flush()
+
+    def due(self, t: float) -> bool:
+        return self.next < len(self.times) and t >= self.times[self.next] * (1 - 1e-9)
+
+    def write(self, sim) -> None:
+        values = sample(sim, self.probes)
+        self.file.write(",".join(repr(values[c]) for c in self.columns) + "\n")
+        self.file.flush()
+        self.rows += 1
+        t = float(sim.time)
+        while self.next < len(self.times) and t >= self.times[self.next] * (1 - 1e-9):
+            self.next += 1
+
+    def close(self) -> None:
+        self.file.close()
+
+
+def _row_time(line: str) -> float:
+    try:
+        return float(line.split(",", 1)[0])
+    except ValueError:
+        return math.inf
+
+
+def read_csv(path) -> tuple[dict, list[str], np.ndarray]:
+    """(the header's comments as {"metadata": ..., "probes": ..., "every": ...},
+    the column names, the rows (n, columns)) of a probes.csv."""
+    meta: dict[str, Any] = {}
+    columns: list[str] = []
+    rows = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        if line.startswith("# sphfluid probes: "):
+            meta["metadata"] = json.loads(line.split(": ", 1)[1])
+        elif line.startswith("# probes: "):
+            meta["probes"] = json.loads(line.split(": ", 1)[1])
+        elif line.startswith("# every: "):
+            meta["every"] = float(line.split(": ", 1)[1].split()[0])
+        elif line.startswith("time,"):
+            columns = line.split(",")
+        elif line and not line.startswith("#"):
+            rows.append([float(x) for x in line.split(",")])
+    return meta, columns, np.array(rows, float).reshape(-1, len(columns))
