@@ -157,7 +157,12 @@ def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys, monkeypatch):
     scene = tmp_path / "boom.json"
     scene.write_text(json.dumps(d))
     assert main(["run", str(scene), "--quiet"]) == 3
-    assert "non-finite" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "non-finite" in err
+    # what to change, with the scene's values: the seed, a fixed step, no retries
+    assert ('what to change: a smaller "solver.time_step" (now 0.01 s), or "auto" for the '
+            'largest stable one; more "fluid.viscosity" (now 0 Pa s;') in err
+    assert '"solver.method": "wcsph"' in err and '"solver.on_instability": "retry"' in err
     assert (tmp_path / "boom.last_good_state.npz").exists()
 
 

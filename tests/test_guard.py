@@ -185,3 +185,18 @@ def test_random_scenes_finish_or_trip_never_nan(k, dt, eta, sigma, x0, y0, w, vx
     x = sim.positions
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(sim.velocities))
     assert np.all((x >= 0.0) & (x <= 1.0))  # nothing left the closed box
+
+
+def test_the_advice_names_what_to_change_for_each_check():
+    """wcsph with the adaptive step: the density check asks for a stiffer fluid
+    (the speed of sound), the energy check for more artificial viscosity, both
+    for a smaller CFL; "retry" is not offered where the scene retries."""
+    d = json.loads((SCENES_DIR / "water" / "dam_break.json").read_text())
+    sim = sphfluid.Simulation(d)
+    dens = sim.instability_advice("step 3: ... [check: density]")
+    assert dens.startswith('what to change: a smaller "solver.cfl" (now 0.4)')
+    assert '"fluid.speed_of_sound" (now ' in dens and "artificial" not in dens
+    energy = sim.instability_advice("... [check: energy]")
+    assert '"fluid.artificial_viscosity" (now ' in energy and "speed_of_sound" not in energy
+    d.setdefault("solver", {})["on_instability"] = "retry"
+    assert "retry" not in sphfluid.Simulation(d).instability_advice("[check: energy]")

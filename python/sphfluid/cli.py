@@ -262,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
 def _run(args) -> int:
     """`sphfluid run`: set up, run to the end writing frames, print the summary."""
     from .scene import load_scene
-    from .simulation import Simulation
+    from .simulation import InstabilityError, Simulation
 
     scene = load_scene(args.scene)
     duration = args.duration if args.duration is not None else scene.duration
@@ -289,7 +289,12 @@ def _run(args) -> int:
             print("note: the scene's probes are written to DIR/probes.csv with --out DIR only",
                   file=sys.stderr)
         run = _Run(args, sim, duration, log)
-        run.to_end()
+        try:
+            run.to_end()
+        except InstabilityError as e:
+            print(f"error: the simulation became unstable: {e}", file=sys.stderr)
+            print(sim.instability_advice(e), file=sys.stderr)
+            return EXIT_UNSTABLE
     finally:
         if log is not None:
             log.close()

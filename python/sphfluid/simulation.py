@@ -222,6 +222,31 @@ class Simulation:
             if bar:
                 bar.close()
 
+    def instability_advice(self, error: BaseException | str) -> str:
+        """What to change in the scene after ``error`` (an InstabilityError of
+        this simulation): one line naming the settings and their values."""
+        msg, s = str(error), self.scene
+        tips = []
+        if s.time_step is not None:
+            tips.append(f'a smaller "solver.time_step" (now {s.time_step:g} s), or "auto" '
+                        "for the largest stable one")
+        else:
+            tips.append(f'a smaller "solver.cfl" (now {s.cfl:g})')
+        stiffness = ('"fluid.gas_constant"' if s.method == "seed" else
+                     f'"fluid.speed_of_sound" (now {speed_of_sound(s):g} m/s)')
+        if "[check: density]" in msg:
+            tips.append(f"a stiffer fluid, a larger {stiffness}")
+        if s.method == "seed":
+            tips.append(f'more "fluid.viscosity" (now {s.viscosity:g} Pa s; the seed\'s own '
+                        'scenes run with 30-100), or "solver.method": "wcsph", which keeps '
+                        "water stable")
+        elif "[check: energy]" in msg or "[check: speed]" in msg or "[check: finite]" in msg:
+            tips.append(f'more "fluid.artificial_viscosity" (now {s.artificial_viscosity:g})')
+        if s.on_instability == "stop":
+            tips.append('"solver.on_instability": "retry", which retries a tripped step with '
+                        "halved time steps")
+        return "what to change: " + "; ".join(tips)
+
     def compute_forces(self) -> None:
         """Density, pressure and acceleration for the current state; nothing moves."""
         self._solver.compute_forces()

@@ -513,7 +513,7 @@ class _Window:
         try:
             sim.step(todo)
         except InstabilityError as e:
-            self.message = f"unstable: {e}"
+            self.message = f"unstable: {e} ({sim.instability_advice(e)})"
             self.paused = True
         self.step_rate = todo / max(time.perf_counter() - t0, 1e-9)
         if sim.adaptive and sim.dt > 0:
