@@ -1,4 +1,4 @@
-"""The `sphfluid` command: run | view | record | bench | stress | validate.
+"""The `sphfluid` command: run | view | record | schema | bench | stress | validate.
 
 Every user mistake ends in one clear message on stderr and a non-zero exit
 code: 2 for bad input (scene, arguments, files), 3 for a numerical blow-up.
@@ -43,10 +43,11 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,bench,stress,validate}")
+                           metavar="{run,view,record,schema,bench,stress,validate}")
     _add_run(sub)
     _add_view(sub)
     _add_record(sub)
+    _add_schema(sub)
     _add_bench(sub)
     _add_stress(sub)
     _add_validate(sub)
@@ -107,6 +108,13 @@ def _add_record(sub) -> None:
     rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
     rec.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     rec.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_schema(sub) -> None:
+    sub.add_parser("schema", help="print the scene format's JSON Schema",
+                   description="Print the JSON Schema of the scene format (draft 2020-12) to "
+                               "stdout. Save it and point a scene's \"$schema\" key at it "
+                               "for an editor to check and complete the scene as it is typed.")
 
 
 def _add_bench(sub) -> None:
@@ -226,6 +234,8 @@ def main(argv: list[str] | None = None) -> int:
             return _view(args)
         if args.command == "record":
             return _record(args)
+        if args.command == "schema":
+            return _schema()
         if args.command == "bench":
             if args.surface_tension and (args.suite or args.draw or args.guard_cost):
                 print("error: --surface-tension applies to the plain dam-break timing only, "
@@ -568,6 +578,15 @@ def _print_summary(run: _Run) -> None:
     if run.checkpoint_time is not None:
         print(f"checkpoint          {run.out / 'checkpoint.npz'} (t = {run.checkpoint_time:.6g} s; "
               "sphfluid run SCENE --resume it)")
+
+
+def _schema() -> int:
+    """`sphfluid schema`: the scene format's JSON Schema, as shipped, on stdout."""
+    from importlib import resources
+
+    sys.stdout.write(resources.files("sphfluid").joinpath("scene.schema.json").read_text(
+        encoding="utf-8"))
+    return 0
 
 
 def _size(text: str) -> tuple[int, int] | None:

@@ -41,8 +41,10 @@ MAX_TENSION_NODES = 50_000_000
 BYTES_PER_PARTICLE = 512  # state, sort scratch, neighbour lists, set-up temporaries
 MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 
-_TOP_KEYS = ("format", "name", "gravity", "domain", "fluid", "resolution", "fluid_regions",
-             "walls", "solver", "duration", "probes")
+# "$schema" (extension): the schema an editor validates the file against
+# (`sphfluid schema` prints it); the loader ignores its value.
+_TOP_KEYS = ("$schema", "format", "name", "gravity", "domain", "fluid", "resolution",
+             "fluid_regions", "walls", "solver", "duration", "probes")
 _DOMAIN_KEYS = ("min", "max", "periodic")
 _FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
                "speed_of_sound", "artificial_viscosity", "background_pressure")
@@ -450,6 +452,9 @@ class _Validator:
             self.missing("format")
         elif d["format"] != FORMAT:
             self.fail("format", f'expected "{FORMAT}", got {json.dumps(d["format"])}')
+        if "$schema" in d and not isinstance(d["$schema"], str):
+            self.fail("$schema", f"expected a string (the schema's path or URL), got "
+                      f"{_kind(d['$schema'])}")
         name = d.get("name", "")
         if not isinstance(name, str):
             self.fail("name", f"expected a string, got {_kind(name)}")
