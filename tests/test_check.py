@@ -33,3 +33,139 @@ def test_a_scene_with_schema_key_loads(tmp_path, scene_dict):
     typo = {**scene_dict, "schema": "x"}
     with pytest.raises(sphfluid.SceneError, match=r'schema: unknown key \(did you mean "\$schema"'):
         sphfluid.load_scene(typo)
+
+
+# ----------------------------------------------------------------- sphfluid check
+
+from conftest import ROOT, SCENE_IDS, SCENES  # noqa: E402
+from sphfluid.check import check_scene, step_limit  # noqa: E402
+
+
+def check(tmp_path, scene: dict, capsys) -> tuple[int, str]:
+    code = main(["check", str(write(tmp_path, scene))])
+    captured = capsys.readouterr()
+    return code, captured.out + captured.err
+
+
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
+def test_every_bundled_scene_passes(path, capsys):
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "error" not in out.replace("0 error(s)", "")
+    assert "warning:" not in out  # none of them has a real one
+    assert "particles    " in out and "steps        " in out
+
+
+def test_a_valid_scene_passes_with_its_numbers(tmp_path, scene_dict, capsys):
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0, out
+    assert "particles    100 (~0.0 MiB" in out  # 10 x 10 at 0.05 m
+    assert "steps        50 to t = 0.05 s" in out
+    assert "0 error(s), 0 warning(s)" in out
+
+
+def test_a_load_error_is_reported_by_path_with_exit_2(tmp_path, scene_dict, capsys):
+    scene_dict["fluid"]["rest_density"] = -1
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 2 and "fluid.rest_density: must be > 0" in out
+
+
+def test_particles_outside_the_domain_are_an_error(scene_dict):
+    import dataclasses
+
+    # the loader refuses a region reaching outside; a domain shrunk after loading
+    scene = sphfluid.load_scene(scene_dict)
+    scene = dataclasses.replace(scene, domain_max=(0.3, 1.1))
+    report = check_scene(scene)
+    assert [(f.level, f.path) for f in report.findings] == [("error", "fluid_regions[0]")]
+    assert "40 of its 100 particles start outside the domain" in report.findings[0].message
+
+
+def test_particles_on_a_wall_are_a_warning_naming_it(tmp_path, scene_dict, capsys):
+    scene_dict["walls"].append([[0.0, 0.225], [1.0, 0.225]])  # along a row of particles
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0
+    assert "warning: walls[1]: 10 fluid particle(s) within half a spacing (0.025 m)" in out
+    assert "walls[0]" not in out  # the tank: its rows are half a spacing away
+
+
+def test_a_polyline_is_named_as_one_wall(tmp_path, scene_dict, capsys):
+    scene_dict["walls"] = [[[0.0, 1.0], [0.0, 0.0]],
+                           {"polyline": [[0.1, 0.9], [0.1, 0.1], [0.9, 0.1]]}]
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0
+    # x = 0.1 and y = 0.1 lie between lattice rows (0.075, 0.125): none within 0.025
+    assert "warning" not in out.replace("0 warning(s)", "")
+    scene_dict["walls"][1]["polyline"] = [[0.125, 0.9], [0.125, 0.125], [0.9, 0.125]]
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert "warning: walls[1]: " in out and "walls[0]" not in out
+    assert "1 warning(s)" in out  # one finding for the polyline's two segments
+
+
+def test_overlapping_regions_are_a_warning_naming_both(tmp_path, scene_dict, capsys):
+    scene_dict["fluid_regions"].append(
+        {"shape": "circle", "center": [0.5, 0.5], "radius": 0.1})
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0
+    assert "warning: fluid_regions[1]: overlaps fluid_regions[0]: " in out
+    scene_dict["fluid_regions"][1]["center"] = [0.8, 0.5]  # beside it, apart
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert "overlaps" not in out
+
+
+def test_a_fixed_step_above_the_limit_is_an_error(tmp_path, capsys):
+    # the seed dam break blows up at step 2 with dt = 0.01 s (test_cli)
+    d = json.loads((ROOT / "scenes" / "dam_break.json").read_text())
+    d["solver"]["time_step"] = 0.01
+    code, out = check(tmp_path, d, capsys)
+    assert code == 2
+    assert "error: solver.time_step: 0.01 s is above the stability limit 0.00101 s" in out
+    assert "cfl: 0.4 h / (sqrt(k) + |v|max)" in out
+    d["solver"]["time_step"] = 0.0002  # as bundled
+    code, out = check(tmp_path, d, capsys)
+    assert code == 0
+
+
+def test_the_viscous_limit_is_named_when_it_limits(tmp_path, scene_dict, capsys):
+    scene_dict["fluid"].update(gas_constant=20.0, viscosity=1500.0)  # test_guard's blow-up
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 2
+    assert "solver.time_step: 0.001 s is above the stability limit 0.000833 s" in out
+    assert "(viscous: 0.125 h^2 rho0 / eta" in out
+
+
+def test_the_start_limit_is_the_cores_first_adaptive_step():
+    scene = sphfluid.load_scene(ROOT / "scenes" / "water" / "dam_break.json")
+    sim = sphfluid.Simulation(scene, threads=1)
+    sim.step(1)
+    assert sim.dt_limit == "cfl"
+    assert step_limit(scene).dt == pytest.approx(sim.dt, rel=1e-9)
+
+
+def test_a_schema_disagreement_is_an_error(tmp_path, scene_dict, capsys, monkeypatch):
+    pytest.importorskip("jsonschema")
+    from importlib import resources as res
+
+    real = res.files("sphfluid").joinpath("scene.schema.json").read_text()
+    schema = json.loads(real)
+    schema["properties"]["name"]["maxLength"] = 3  # a schema stricter than the loader
+
+    class Files:
+        def joinpath(self, name):
+            return self
+
+        def read_text(self, encoding=None):
+            return json.dumps(schema)
+
+    monkeypatch.setattr(res, "files", lambda pkg: Files())
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 2
+    assert "error: name: the JSON Schema refuses it" in out and "disagree" in out
+
+
+def test_without_jsonschema_check_says_so(tmp_path, scene_dict, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "jsonschema", None)  # import fails
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0 and "jsonschema is not installed" in out

@@ -1,4 +1,4 @@
-"""The `sphfluid` command: run | view | record | schema | bench | stress | validate.
+"""The `sphfluid` command: run | view | record | check | schema | bench | stress | validate.
 
 Every user mistake ends in one clear message on stderr and a non-zero exit
 code: 2 for bad input (scene, arguments, files), 3 for a numerical blow-up.
@@ -43,10 +43,11 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,schema,bench,stress,validate}")
+                           metavar="{run,view,record,check,schema,bench,stress,validate}")
     _add_run(sub)
     _add_view(sub)
     _add_record(sub)
+    _add_check(sub)
     _add_schema(sub)
     _add_bench(sub)
     _add_stress(sub)
@@ -108,6 +109,19 @@ def _add_record(sub) -> None:
     rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
     rec.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     rec.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_check(sub) -> None:
+    c = sub.add_parser("check", help="check a scene before running it",
+                       description="Load a scene (its errors by JSON path), validate it "
+                                   "against the JSON Schema when jsonschema is installed, then "
+                                   "check its initial particles and time step: particles "
+                                   "outside the domain, overlapping a wall or another region, "
+                                   "a fixed time step above the stability limit. Prints each "
+                                   "finding as error: or warning: with its JSON path, then the "
+                                   "particle count, memory and steps. Exit code 0 without "
+                                   "errors, 2 with.")
+    c.add_argument("scene", help="scene JSON file")
 
 
 def _add_schema(sub) -> None:
@@ -236,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
             return _record(args)
         if args.command == "schema":
             return _schema()
+        if args.command == "check":
+            return _check(args)
         if args.command == "bench":
             if args.surface_tension and (args.suite or args.draw or args.guard_cost):
                 print("error: --surface-tension applies to the plain dam-break timing only, "
@@ -578,6 +594,30 @@ def _print_summary(run: _Run) -> None:
     if run.checkpoint_time is not None:
         print(f"checkpoint          {run.out / 'checkpoint.npz'} (t = {run.checkpoint_time:.6g} s; "
               "sphfluid run SCENE --resume it)")
+
+
+def _check(args) -> int:
+    """`sphfluid check`: the loader, the JSON Schema, then the physical checks."""
+    from .check import check_scene, schema_findings
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)  # a SceneError: its problems, exit 2 (main)
+    raw = json.loads(Path(args.scene).read_text(encoding="utf-8"))
+    findings = schema_findings(raw)
+    if findings is None:
+        print("note: jsonschema is not installed: the scene was not validated against the "
+              "JSON Schema (pip install jsonschema)")
+        findings = []
+    report = check_scene(scene, raw)
+    findings += report.findings
+    for f in findings:
+        print(f)
+    for line in report.info:
+        print(line)
+    errors = sum(f.level == "error" for f in findings)
+    warnings = len(findings) - errors
+    print(f"{args.scene}: {errors} error(s), {warnings} warning(s)")
+    return EXIT_BAD_INPUT if errors else 0
 
 
 def _schema() -> int:

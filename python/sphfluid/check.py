@@ -1,0 +1,218 @@
+"""The scene check before a run (`sphfluid check`, and the start of `run` and `view`).
+
+A scene that loads is valid by the format; these checks look at what it will
+do: the initial particles (``Scene.lattice_points``) against the domain, the
+walls and each other, a fixed time step against the stability limit the
+adaptive step would take at the start, and the size of the run. Each finding
+is an error (the run would go wrong at once) or a warning, with the JSON path
+of the place it concerns; the numbers are printed as information.
+
+Everything is O(N) numpy over the initial particles; the wall distances are
+all particles against one segment at a time.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from .scene import BYTES_PER_PARTICLE, DEFAULT_CFL, Scene, _fill_regions
+
+# The adaptive step's conditions (cpp/core/params.hpp, cpp/context.cpp choose_dt):
+#   dt <= cfl l / (c + |v|max), dt <= VISCOUS_FACTOR l^2 rho0 / eta
+# with the method's step length l and sound speed c (cpp/methods/registry.cpp).
+VISCOUS_FACTOR = 0.125  # SimParams::kViscousFactor
+
+
+@dataclass(frozen=True)
+class Finding:
+    level: str  # "error" | "warning"
+    path: str  # JSON path of the place it concerns, e.g. "walls[3]"
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.level}: {self.path}: {self.message}"
+
+
+@dataclass(frozen=True)
+class StepLimit:
+    dt: float  # s: the largest stable step at the start
+    limit: str  # "cfl" | "viscous": the condition that gives it
+    why: str  # the condition with the scene's numbers
+
+
+@dataclass
+class Report:
+    findings: list[Finding]
+    info: list[str]  # lines of information: particles, memory, steps
+
+    @property
+    def errors(self) -> list[Finding]:
+        return [f for f in self.findings if f.level == "error"]
+
+    @property
+    def warnings(self) -> list[Finding]:
+        return [f for f in self.findings if f.level == "warning"]
+
+
+def step_limit(scene: Scene, cfl: float | None = None) -> StepLimit:
+    """The time step the adaptive step would take at the start, as the core's
+    choose_dt computes it, with the initial speeds for |v|max. The force
+    condition needs the first accelerations (pressure forces included), so it
+    is left out: the estimate is an upper bound of the core's."""
+    if cfl is None:
+        cfl = scene.cfl if scene.time_step is None else DEFAULT_CFL
+    if scene.method == "wcsph":  # its Wendland kernel's smoothing length h/2, its c0
+        from .simulation import speed_of_sound
+
+        length, c, c_text = scene.smoothing_length / 2, speed_of_sound(scene), "c0"
+        l_text = "h/2"
+    else:  # the seed: the support h, c = sqrt(k) of p = k (rho - rho0)
+        length, c, c_text = scene.smoothing_length, math.sqrt(scene.gas_constant), "sqrt(k)"
+        l_text = "h"
+    v0 = max((math.hypot(*r.velocity) for r in scene.regions), default=0.0)
+    dt = cfl * length / (c + v0)
+    out = StepLimit(dt, "cfl", f"cfl: {cfl:g} {l_text} / ({c_text} + |v|max) with "
+                    f"{l_text} = {length:g} m, {c_text} = {c:.4g} m/s, |v|max = {v0:g} m/s")
+    if scene.viscosity > 0:
+        visc = VISCOUS_FACTOR * length**2 * scene.rest_density / scene.viscosity
+        if visc < dt:
+            out = StepLimit(visc, "viscous", f"viscous: {VISCOUS_FACTOR:g} {l_text}^2 rho0 / "
+                            f"eta with {l_text} = {length:g} m, rho0 = "
+                            f"{scene.rest_density:g} kg/m^3, eta = {scene.viscosity:g} Pa s")
+    return out
+
+
+def wall_paths(scene: Scene, raw: Mapping[str, Any] | None) -> list[str]:
+    """The JSON path of each wall segment's entry in "walls" (a polyline is one
+    entry of several segments), from the scene's JSON; "walls" by segment
+    number when the JSON is not at hand."""
+    paths: list[str] = []
+    walls = raw.get("walls", []) if raw is not None else None
+    if isinstance(walls, list):
+        for i, item in enumerate(walls):
+            if isinstance(item, dict):
+                n = len(item.get("polyline", [])) - 1 + bool(item.get("closed", False))
+            else:
+                n = 1
+            paths += [f"walls[{i}]"] * n
+    if len(paths) != len(scene.walls):
+        paths = [f"walls (segment {k})" for k in range(len(scene.walls))]
+    return paths
+
+
+def _distance_to_segment(pos: np.ndarray, a, b) -> np.ndarray:
+    """Distances of the points pos (n, 2) to the segment a-b."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    ab = b - a
+    t = np.clip((pos - a) @ ab / float(ab @ ab), 0.0, 1.0)
+    return np.hypot(*(pos - a - t[:, None] * ab).T)
+
+
+def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
+    """The physical checks of a loaded scene (raw: its JSON, to name the walls)."""
+    findings: list[Finding] = []
+    info: list[str] = []
+    dx = scene.spacing
+    lo, hi = np.asarray(scene.domain_min), np.asarray(scene.domain_max)
+    near = 0.5 * dx * (1 - 1e-6)  # a lattice row half a spacing from a wall is the norm
+
+    # each region's own lattice points (the scene creates a shared point once)
+    per_region = [_fill_regions((r,), dx)[0] for r in scene.regions]
+    for i, pos in enumerate(per_region):
+        keep = np.ones(len(pos), bool)
+        for axis in range(2):
+            if not scene.periodic[axis]:  # a periodic axis wraps them in
+                keep &= (pos[:, axis] >= lo[axis]) & (pos[:, axis] <= hi[axis])
+        if (out := int(len(pos) - keep.sum())):
+            findings.append(Finding("error", f"fluid_regions[{i}]", f"{out:,} of its "
+                                    f"{len(pos):,} particles start outside the domain: they "
+                                    "would be removed at once"))
+
+    keys = [np.round(pos / dx - 0.5).astype(np.int64) for pos in per_region]
+    for j in range(len(keys)):
+        for i in range(j):
+            shared = _shared_rows(keys[i], keys[j])
+            if shared:
+                findings.append(Finding(
+                    "warning", f"fluid_regions[{j}]", f"overlaps fluid_regions[{i}]: {shared:,} "
+                    f"particle(s) closer than half a spacing to one of fluid_regions[{i}] (they "
+                    f"are created once, with fluid_regions[{i}]'s velocity)"))
+
+    pos, _ = scene.lattice_points()
+    if scene.walls:
+        paths = wall_paths(scene, raw)
+        close: dict[str, np.ndarray] = {}
+        for (a, b), path in zip(scene.walls, paths):
+            hit = _distance_to_segment(pos, a, b) < near
+            close[path] = close[path] | hit if path in close else hit
+        for path, hit in close.items():
+            if (n := int(hit.sum())):
+                findings.append(Finding("warning", path, f"{n:,} fluid particle(s) within half a "
+                                        f"spacing ({dx / 2:g} m) of the wall: they start "
+                                        "overlapping it"))
+
+    limit = step_limit(scene)
+    if scene.time_step is not None and scene.time_step > limit.dt:
+        findings.append(Finding(
+            "error", "solver.time_step", f"{scene.time_step:g} s is above the stability limit "
+            f"{limit.dt:.3g} s at the start ({limit.why}); use at most {limit.dt:.2g} s, or "
+            '"auto"'))
+
+    n = len(pos)
+    info.append(f"particles    {n:,} (~{n * BYTES_PER_PARTICLE / 2**20:.1f} MiB at the "
+                f"{BYTES_PER_PARTICLE} bytes per particle the loader budgets)")
+    step_text = (f"fixed {scene.time_step:g} s" if scene.time_step is not None
+                 else f"adaptive, cfl {scene.cfl:g}")
+    info.append(f"time step    {step_text}; stability limit at the start {limit.dt:.3g} s "
+                f"({limit.limit})")
+    if scene.duration is not None:
+        if scene.time_step is not None:
+            steps = math.ceil(scene.duration / scene.time_step - 1e-9)
+            info.append(f"steps        {steps:,} to t = {scene.duration:g} s")
+        else:
+            steps = math.ceil(scene.duration / limit.dt - 1e-9)
+            info.append(f"steps        about {steps:,} to t = {scene.duration:g} s at the "
+                        "start's step limit (more if the flow speeds up)")
+    else:
+        info.append("steps        the scene has no duration")
+    return Report(findings, info)
+
+
+def _shared_rows(a: np.ndarray, b: np.ndarray) -> int:
+    """How many lattice points (integer rows (i, j)) a and b have in common."""
+    if len(a) == 0 or len(b) == 0:
+        return 0
+    pack = lambda k: k[:, 0] * (1 << 32) + k[:, 1]  # noqa: E731  (|i|, |j| < 2^31)
+    return int(np.intersect1d(pack(a), pack(b), assume_unique=True).size)
+
+
+def schema_findings(raw: Any) -> list[Finding] | None:
+    """The scene's JSON against the shipped JSON Schema, one error per
+    violation by JSON path; None when jsonschema is not installed."""
+    try:
+        import jsonschema
+    except ImportError:
+        return None
+    import json
+    from importlib import resources
+
+    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text(
+        encoding="utf-8"))
+    validator = jsonschema.Draft202012Validator(schema)
+    out = []
+    for e in sorted(validator.iter_errors(raw), key=lambda e: list(map(str, e.absolute_path))):
+        out.append(Finding("error", json_path(e.absolute_path) or "(top level)",
+                           f"the JSON Schema refuses it ({e.message}), though the loader "
+                           "accepts it: the two disagree"))
+    return out
+
+
+def json_path(parts) -> str:
+    """["walls", 3, "polyline"] as walls[3].polyline."""
+    text = ""
+    for p in parts:
+        text += f"[{p}]" if isinstance(p, int) else (f".{p}" if text else str(p))
+    return text
