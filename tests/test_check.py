@@ -169,3 +169,28 @@ def test_without_jsonschema_check_says_so(tmp_path, scene_dict, capsys, monkeypa
     monkeypatch.setitem(sys.modules, "jsonschema", None)  # import fails
     code, out = check(tmp_path, scene_dict, capsys)
     assert code == 0 and "jsonschema is not installed" in out
+
+
+# ------------------------------------------------------- the check at the start of run/view
+
+def test_run_stops_on_a_check_error_and_prints_warnings(tmp_path, scene_dict, capsys):
+    scene_dict["fluid"].update(gas_constant=20.0, viscosity=1500.0)  # the viscous limit
+    scene_dict["duration"] = 1.0  # long enough to blow up (test_guard)
+    path = write(tmp_path, scene_dict)
+    assert main(["run", str(path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "error: solver.time_step: 0.001 s is above the stability limit" in err
+    assert "--no-check" in err
+    assert main(["run", str(path), "--quiet", "--no-check"]) == 3  # the guard trips
+
+    ok = write(tmp_path, {**scene_dict, "fluid": {"rest_density": 1000.0, "gas_constant": 250.0},
+                          "walls": [[[0.0, 0.225], [1.0, 0.225]]]}, "ok.json")
+    assert main(["run", str(ok), "--quiet", "--duration", "0.005"]) == 0
+    assert "warning: walls[0]: 10 fluid particle(s)" in capsys.readouterr().err
+
+
+def test_view_stops_on_a_check_error(tmp_path, scene_dict, capsys):
+    scene_dict["solver"]["time_step"] = 0.05
+    path = write(tmp_path, scene_dict)
+    assert main(["view", str(path), "--frames", "1"]) == 2  # before a window opens
+    assert "error: solver.time_step: 0.05 s" in capsys.readouterr().err

@@ -149,7 +149,8 @@ def test_cli_saves_the_last_good_state(tmp_path, capsys):
     d["duration"] = 1.0
     scene = tmp_path / "unstable.json"
     scene.write_text(json.dumps(d))
-    assert main(["run", str(scene), "--quiet", "--out", str(tmp_path / "out")]) == 3
+    assert main(["run", str(scene), "--quiet", "--out", str(tmp_path / "out"),
+                 "--no-check"]) == 3  # past the check, to the guard
     err = capsys.readouterr().err
     assert "[check: energy]" in err and "last_good_state.npz" in err
     state = np.load(tmp_path / "out" / "last_good_state.npz")

@@ -79,6 +79,7 @@ def _add_run(sub) -> None:
                         "steps, guard margins (docs/output.md); --resume appends")
     r.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_no_check(r)
 
 
 def _add_view(sub) -> None:
@@ -94,6 +95,14 @@ def _add_view(sub) -> None:
     v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     v.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
                    default="speed", help="colour mode (keys 1-4 switch it live)")
+    _add_no_check(v)
+
+
+def _add_no_check(p) -> None:
+    p.add_argument("--no-check", action="store_true",
+                   help="skip the scene check at the start (sphfluid check: its warnings are "
+                        "printed, its errors stop the run), e.g. to watch a too-large time step "
+                        "blow up")
 
 
 def _add_record(sub) -> None:
@@ -291,6 +300,9 @@ def _run(args) -> int:
     from .simulation import InstabilityError, Simulation
 
     scene = load_scene(args.scene)
+    refused = _start_check(args, scene)
+    if refused is not None:
+        return refused
     duration = args.duration if args.duration is not None else scene.duration
     refused = _prepare_run(args, scene, duration)
     if refused is not None:
@@ -326,6 +338,28 @@ def _run(args) -> int:
             log.close()
     _print_summary(run)
     return 0
+
+
+def _start_check(args, scene) -> int | None:
+    """The scene check (sphfluid check, without the schema) at the start of run and
+    view: its findings on stderr; an exit code if one is an error, else None."""
+    if args.no_check:
+        return None
+    from .check import check_scene
+
+    try:
+        raw = json.loads(Path(args.scene).read_text(encoding="utf-8"))  # to name the walls
+    except (OSError, ValueError):
+        raw = None
+    report = check_scene(scene, raw)
+    for f in report.findings:
+        print(f, file=sys.stderr)
+    if report.errors:
+        print(f"error: {args.scene}: the scene check found {len(report.errors)} error(s) "
+              "(sphfluid check); fix the scene, or pass --no-check to run it anyway",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return None
 
 
 def _resume(args, sim, duration: float) -> int | None:
@@ -643,12 +677,17 @@ def _size(text: str) -> tuple[int, int] | None:
 
 
 def _view(args) -> int:
+    from .scene import load_scene
     from .viewer import view
 
     size = _size(args.size)
     if size is None:
         return EXIT_BAD_INPUT
-    return view(args.scene, frames=args.frames, screenshot=args.screenshot,
+    scene = load_scene(args.scene)
+    refused = _start_check(args, scene)
+    if refused is not None:
+        return refused
+    return view(scene, frames=args.frames, screenshot=args.screenshot,
                 steps_per_frame=args.steps_per_frame, size=size, threads=args.threads,
                 mode=args.mode)
 
