@@ -119,11 +119,15 @@ def test_a_fixed_step_above_the_limit_is_an_error(tmp_path, capsys):
     d["solver"]["time_step"] = 0.01
     code, out = check(tmp_path, d, capsys)
     assert code == 2
-    assert "error: solver.time_step: 0.01 s is above the stability limit 0.00101 s" in out
-    assert "cfl: 0.4 h / (sqrt(k) + |v|max)" in out
-    d["solver"]["time_step"] = 0.0002  # as bundled
+    assert "error: solver.time_step: 0.01 s is above the stability limit 0.00253 s" in out
+    assert "cfl: 1 h / (sqrt(k) + |v|max)" in out and "at most 0.001 s" in out
+    d["solver"]["time_step"] = 0.0015  # above the adaptive step's cfl 0.4, below cfl 1
     code, out = check(tmp_path, d, capsys)
     assert code == 0
+    assert "warning: solver.time_step: 0.0015 s is above the adaptive step's 0.00101 s" in out
+    d["solver"]["time_step"] = 0.0002  # as bundled
+    code, out = check(tmp_path, d, capsys)
+    assert code == 0 and "solver.time_step" not in out.split("particles")[0]
 
 
 def test_the_viscous_limit_is_named_when_it_limits(tmp_path, scene_dict, capsys):

@@ -156,10 +156,20 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
 
     limit = step_limit(scene)
     if scene.time_step is not None and scene.time_step > limit.dt:
-        findings.append(Finding(
-            "error", "solver.time_step", f"{scene.time_step:g} s is above the stability limit "
-            f"{limit.dt:.3g} s at the start ({limit.why}); use at most {limit.dt:.2g} s, or "
-            '"auto"'))
+        # above the sound speed's CFL 1 (or the viscous bound) the explicit step
+        # cannot be stable; between it and the adaptive step's CFL it may run
+        hard = step_limit(scene, cfl=1.0)
+        if scene.time_step > hard.dt:
+            findings.append(Finding(
+                "error", "solver.time_step", f"{scene.time_step:g} s is above the stability "
+                f"limit {hard.dt:.3g} s at the start ({hard.why}); use at most "
+                f"{limit.dt:.2g} s (the adaptive step's, cfl {DEFAULT_CFL:g}), or \"auto\""))
+        else:
+            findings.append(Finding(
+                "warning", "solver.time_step", f"{scene.time_step:g} s is above the adaptive "
+                f"step's {limit.dt:.3g} s at the start ({limit.why}), within the stability "
+                f"limit {hard.dt:.3g} s (cfl 1): it may run, with more density noise; "
+                f"{limit.dt:.2g} s or \"auto\" is safe"))
 
     n = len(pos)
     info.append(f"particles    {n:,} (~{n * BYTES_PER_PARTICLE / 2**20:.1f} MiB at the "
