@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+import json
 import sys
 from pathlib import Path
 
@@ -41,3 +42,16 @@ BASE_SCENE = {
 def scene_dict():
     """A fresh copy of a small valid scene, to modify per test."""
     return copy.deepcopy(BASE_SCENE)
+
+
+def write_boom_scene(folder):
+    """BASE_SCENE made to blow up at its first step (pressures overflow to inf,
+    no viscosity, a fixed 0.01 s step), written to folder/boom.json."""
+    d = json.loads(json.dumps(BASE_SCENE))
+    d["fluid"]["gas_constant"] = 1e306
+    d["fluid"]["viscosity"] = 0.0
+    d["solver"]["time_step"] = 0.01
+    d["duration"] = 5.0
+    path = folder / "boom.json"
+    path.write_text(json.dumps(d))
+    return path

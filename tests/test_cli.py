@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 import sphfluid
-from conftest import BASE_SCENE, SCENE_IDS, SCENES
+from conftest import BASE_SCENE, SCENE_IDS, SCENES, write_boom_scene
 from sphfluid.cli import main
 
 
@@ -149,13 +149,7 @@ def test_run_refuses_a_scene_larger_than_memory(tmp_path, capsys):
 
 def test_unstable_run_exits_3_with_the_reason(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the last good state is saved in the current folder
-    d = json.loads(json.dumps(BASE_SCENE))
-    d["fluid"]["gas_constant"] = 1e306  # pressures overflow to inf
-    d["fluid"]["viscosity"] = 0.0
-    d["solver"]["time_step"] = 0.01
-    d["duration"] = 5.0
-    scene = tmp_path / "boom.json"
-    scene.write_text(json.dumps(d))
+    scene = write_boom_scene(tmp_path)
     assert main(["run", str(scene), "--quiet", "--no-check"]) == 3  # past the check
     err = capsys.readouterr().err
     assert "non-finite" in err

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 import sphfluid.simulation
-from conftest import BASE_SCENE
+from conftest import BASE_SCENE, write_boom_scene
 from sphfluid import Simulation
 from sphfluid.cli import main
 from sphfluid.metadata import run_metadata, scene_hash
@@ -185,13 +185,7 @@ def test_a_log_that_cannot_be_written_stops_the_run_before_it_starts(tmp_path, c
 
 def test_a_blow_up_ends_the_log_with_the_last_good_state(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)  # the last good state is saved in the current folder
-    d = copy.deepcopy(BASE_SCENE)
-    d["fluid"]["gas_constant"] = 1e306  # pressures overflow to inf
-    d["fluid"]["viscosity"] = 0.0
-    d["solver"]["time_step"] = 0.01
-    d["duration"] = 5.0
-    scene = tmp_path / "boom.json"
-    scene.write_text(json.dumps(d))
+    scene = write_boom_scene(tmp_path)
     log = tmp_path / "run.jsonl"
     assert main(["run", str(scene), "--log", str(log), "--quiet", "--no-check"]) == 3
     lines = read_log(log)
