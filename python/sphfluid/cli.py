@@ -437,7 +437,7 @@ class _Run:
     """The run loop of `sphfluid run`: it lands on every frame time, checkpoint
     time and the end (the times that shape an adaptive run's path, so a run
     resumed from a checkpoint with the same options continues bit for bit),
-    samples the density error and draws progress every CHUNK steps between
+    samples the density's extremes and draws progress every CHUNK steps between
     them, writes the frames, checkpoints and log lines, warns of retried steps
     and, on a blow-up, saves the last good state.
 
@@ -481,9 +481,7 @@ class _Run:
             self.writer = frame_writer(getattr(args, "format", None) or "npz", self.out, sim)
             if start > 0 and self.frame_times:  # resumed: the frames before are there
                 self.writer.resume(min(self.frame_times.values()))
-        st = sim.stats()
-        self.stats = st  # of the last sample
-        self.max_err, self.max_comp = st["max_density_error"], st["max_compression"]
+        self.max_err, self.max_comp = sim.density_extremes()
         self.particle_steps = 0
         self.retries_seen = 0
         self.wall = 0.0  # s
@@ -541,9 +539,8 @@ class _Run:
                 raise
             self.warn_of_retries()
             self.particle_steps += steps * n_before
-            st = self.stats = sim.stats()
-            self.max_err = max(self.max_err, st["max_density_error"])
-            self.max_comp = max(self.max_comp, st["max_compression"])
+            err, comp = sim.density_extremes()  # (not all of stats(): a sample is often)
+            self.max_err, self.max_comp = max(self.max_err, err), max(self.max_comp, comp)
             if self.bar:
                 self.bar.update(sim.time, sim)
             self.write_probes()
@@ -554,13 +551,13 @@ class _Run:
                 return
 
     def write_log(self, stats: dict | None = None, **extra) -> None:
-        """A line of the log (if any) for the state of the last sample (or stats)."""
+        """A line of the log (if any) for the current state (or stats)."""
         if self.log is None:
             return
         from .runlog import health
 
         sim = self.sim
-        self.log.write({**health(sim, stats or self.stats),
+        self.log.write({**health(sim, stats),
                         "wall_time": time.perf_counter() - self.started, **extra})
         if self.log_every is not None:  # the next multiple of log_every past now
             k = math.floor(sim.time / self.log_every * (1 + 1e-12)) + 1

@@ -411,14 +411,24 @@ class Simulation:
         """Particles removed for leaving the domain."""
         return self._solver.removed_particles
 
+    def density_extremes(self) -> tuple[float, float]:
+        """(max |rho/rho0 - 1|, max(rho/rho0 - 1, 0)) of the current state: the
+        density error (it counts the free surface's particles, whose summed
+        density falls short for want of neighbours) and the compression; the
+        two of ``stats()``, without its other sums."""
+        rho = self.densities
+        if not len(rho):
+            return 0.0, 0.0
+        lo, hi = float(rho.min()), float(rho.max())
+        rho0 = self.scene.rest_density
+        return max(abs(lo / rho0 - 1.0), abs(hi / rho0 - 1.0)), max(hi / rho0 - 1.0, 0.0)
+
     def stats(self) -> dict:
         """Summary numbers of the current state (SI units)."""
         v = self.velocities
         rho = self.densities
         speed2 = (v * v).sum(axis=1) if len(v) else np.zeros(0)
-        rho0 = self.scene.rest_density
-        dev = rho / rho0 - 1.0 if len(rho) else np.zeros(0)
-        err = np.abs(dev)
+        max_err, max_comp = self.density_extremes()
         return {
             "time": self.time,
             "step_count": self.step_count,
@@ -432,12 +442,10 @@ class Simulation:
             "removed_particles": self.removed_particles,
             "kinetic_energy": 0.5 * self.particle_mass * float(speed2.sum()),  # J per m depth
             "max_speed": float(math.sqrt(speed2.max())) if len(v) else 0.0,
-            # |rho/rho0 - 1| counts the free surface's particles, whose summed
-            # density falls short for want of neighbours (not compression)
-            "max_density_error": float(err.max()) if len(err) else 0.0,
-            # max(rho/rho0 - 1, 0): how far the fluid is compressed
-            "max_compression": max(float(dev.max()), 0.0) if len(dev) else 0.0,
-            "mean_density_error": float(err.mean()) if len(err) else 0.0,
+            "max_density_error": max_err,  # (density_extremes)
+            "max_compression": max_comp,
+            "mean_density_error": (float(np.abs(rho / self.scene.rest_density - 1.0).mean())
+                                   if len(rho) else 0.0),
             "neighbour_pairs": self._solver.neighbour_pairs,
             "retried_steps": self.retried_steps,
             "energy_budget": self._solver.energy_budget,  # J per m depth, for the guard
