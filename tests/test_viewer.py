@@ -1,8 +1,10 @@
 """Viewer and recorder, headless (SDL dummy driver)."""
 from __future__ import annotations
 
+import gc
 import json
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -102,7 +104,7 @@ def test_record_refuses_an_unknown_file_type(tmp_path, capsys):
     scene = tmp_path / "s.json"
     scene.write_text(json.dumps(BASE_SCENE))
     assert main(["record", str(scene), "--out", str(tmp_path / "movie.avi")]) == 2
-    assert "expected a folder for PNG frames or a .gif file" in capsys.readouterr().err
+    assert "expected a folder for PNG frames, a .gif or an .mp4 file" in capsys.readouterr().err
 
 
 def scripted_view(scene, events, frames, size=(500, 400)):
@@ -203,7 +205,8 @@ def test_zoom_keeps_the_point_under_the_cursor():
 
 
 def test_record_writes_a_gif(tmp_path, capsys):
-    image = pytest.importorskip("PIL.Image")
+    from PIL import Image as image  # a dependency of the plain install
+
     scene = tmp_path / "s.json"
     scene.write_text(json.dumps(BASE_SCENE))
     out = tmp_path / "movie.gif"
@@ -211,3 +214,78 @@ def test_record_writes_a_gif(tmp_path, capsys):
                  "--size", "200x150", "--mode", "surface"]) == 0
     with image.open(out) as gif:
         assert gif.size == (200, 150) and gif.n_frames == 3
+
+
+def test_liquid_mode_draws_a_smooth_anti_aliased_surface(display):
+    """The tank at rest in liquid mode: the water's top edge is one straight row
+    of pixels at the fill height (no cell steps), edged with blended colours."""
+    from sphfluid.viewer import LIQUID
+
+    sim = sphfluid.Simulation(json.loads((ROOT / "scenes" / "water" /
+                                          "hydrostatic.json").read_text()))
+    img, r = render(sim, "surface", size=(600, 500))
+    (x0, _), (x1, y1) = sim.scene.regions[0].bounds()
+    left, _ = r.camera.to_screen(np.array([x0 + 0.1, y1]))
+    right, top = r.camera.to_screen(np.array([x1 - 0.1, y1]))
+    liquid = np.all(img == LIQUID, axis=2)
+    tops = [int(np.flatnonzero(liquid[x])[0]) for x in range(int(left), int(right))]
+    assert max(tops) - min(tops) <= 1 and abs(np.median(tops) - float(top)) <= 2
+    # between the body and the background above it, the rim's blended pixels
+    column = img[int(left) + 5, :, :].astype(int)
+    above = column[int(top) - 6:int(top) + 3]
+    plain = {tuple(c) for c in (LIQUID, BACKGROUND)}
+    assert any(tuple(c) not in plain for c in above)
+
+
+def test_record_writes_an_mp4_at_the_frame_rate(tmp_path):
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    out = tmp_path / "movie.mp4"
+    assert main(["record", str(scene), "--out", str(out), "--duration", "0.15", "--fps", "20",
+                 "--size", "201x150", "--quiet"]) == 0
+    with warnings.catch_warnings():  # the reader leaves ffmpeg's pipes to the collector
+        warnings.simplefilter("ignore", ResourceWarning)
+        reader = imageio_ffmpeg.read_frames(str(out))
+        meta = next(reader)
+        frames = [np.frombuffer(f, np.uint8).reshape(150, 202, 3) for f in reader]
+        del reader
+        gc.collect()
+    assert meta["codec"] == "h264" and meta["fps"] == 20 and meta["size"] == (202, 150)
+    assert len(frames) == 4  # t = 0 .. 0.15
+    assert not np.array_equal(frames[0], frames[-1])  # the fluid moved
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_an_mp4_without_imageio_ffmpeg_names_the_extra(tmp_path, monkeypatch, capsys):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    assert main(["record", str(scene), "--out", str(tmp_path / "m.mp4"), "--duration", "0.1",
+                 "--quiet"]) == 2
+    assert 'pip install "sphfluid[video]"' in capsys.readouterr().err
+    assert not list(tmp_path.glob("*.mp4")) and not list(tmp_path.glob(".*"))
+
+
+@pytest.mark.parametrize("name", ["m.gif", "m.mp4"])
+def test_a_recording_that_fails_leaves_no_file(tmp_path, monkeypatch, name):
+    """A run that stops part way (here a blow-up at the third frame) leaves
+    neither the movie nor its temporary file."""
+    if name.endswith("mp4"):
+        pytest.importorskip("imageio_ffmpeg")
+    from sphfluid.viewer import record
+
+    calls = []
+
+    def advance(self, t, max_steps=None):
+        calls.append(t)
+        if len(calls) == 3:
+            raise sphfluid.InstabilityError("blew up")
+        return 0
+
+    monkeypatch.setattr(sphfluid.Simulation, "advance_to", advance)
+    with pytest.raises(sphfluid.InstabilityError):
+        record(BASE_SCENE, tmp_path / name, duration=0.2, fps=20, size=(120, 90))
+    assert list(tmp_path.iterdir()) == []

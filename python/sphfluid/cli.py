@@ -64,6 +64,10 @@ def _add_run(sub) -> None:
     r.add_argument("--format", choices=("npz", "vtk"),
                    help="frames as .npz files (the default), or as VTK .vtu files with a "
                         "frames.pvd collection for ParaView")
+    r.add_argument("--surface", action="store_true",
+                   help="with --out: each frame's liquid outline too, as surface_NNNNN.svg "
+                        "and, with --format vtk, as polylines in surface_NNNNN.vtu (part 2 "
+                        "of frames.pvd)")
     r.add_argument("--every", type=_positive,
                    help="simulated seconds between frames (default 1/30 s)")
     r.add_argument("--checkpoint-every", type=_positive, metavar="T",
@@ -106,13 +110,15 @@ def _add_no_check(p) -> None:
 
 
 def _add_record(sub) -> None:
-    rec = sub.add_parser("record", help="render a scene to PNG frames or a GIF",
+    rec = sub.add_parser("record", help="render a scene to PNG frames, a GIF or an MP4",
                          description="Render frames headless (no display needed).")
     rec.add_argument("scene", help="scene JSON file")
     rec.add_argument("--out", type=Path, required=True,
-                     help="a folder for PNG frames, or a .gif file (needs Pillow)")
+                     help="a folder for PNG frames, a .gif file, or an .mp4 video (needs "
+                          "imageio-ffmpeg: pip install \"sphfluid[video]\")")
     rec.add_argument("--duration", type=_positive, help="simulated seconds (default: the scene's)")
-    rec.add_argument("--fps", type=_positive, default=30.0, help="frames per simulated second")
+    rec.add_argument("--fps", type=_positive, default=30.0,
+                     help="frames per simulated second (a GIF or MP4 plays them in real time)")
     rec.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
                      default="speed")
     rec.add_argument("--size", default="800x600", help="frame size WxH in pixels")
@@ -379,14 +385,15 @@ def _resume(args, sim, duration: float) -> int | None:
 
 
 def _prepare_run(args, scene, duration: float | None) -> int | None:
-    """Refuse a run without a duration, with --every or --format but no --out, or with
+    """Refuse a run without a duration, with --every, --surface or --format but no --out, or with
     --format vtk but no VTK writer installed, and make --out with the scene as run in
     it: an exit code after saying why not, or None."""
     if duration is None:
         print(f"error: {args.scene}: the scene has no 'duration'; pass --duration T",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    for given, option in ((args.every, "--every"), (args.checkpoint_every, "--checkpoint-every")):
+    for given, option in ((args.every, "--every"), (args.checkpoint_every, "--checkpoint-every"),
+                          (args.surface or None, "--surface")):
         if given is not None and args.out is None:
             print(f"error: {option} needs --out DIR", file=sys.stderr)
             return EXIT_BAD_INPUT
@@ -478,7 +485,8 @@ class _Run:
         if self.out:
             from .output import frame_writer
 
-            self.writer = frame_writer(getattr(args, "format", None) or "npz", self.out, sim)
+            self.writer = frame_writer(getattr(args, "format", None) or "npz", self.out, sim,
+                                       surface=getattr(args, "surface", False))
             if start > 0 and self.frame_times:  # resumed: the frames before are there
                 self.writer.resume(min(self.frame_times.values()))
         self.max_err, self.max_comp = sim.density_extremes()

@@ -73,22 +73,32 @@ def replacing(path: Path) -> Iterator[Path]:
         raise
 
 
-def frame_writer(fmt: str, folder: Path, sim):
-    """The writer of ``--format fmt`` frames into folder, with sim's run metadata."""
+def frame_writer(fmt: str, folder: Path, sim, surface: bool = False):
+    """The writer of ``--format fmt`` frames into folder, with sim's run metadata;
+    with surface, each frame's liquid outline too (sphfluid.surface)."""
     from .metadata import run_metadata
 
     if fmt not in FORMATS:
         raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
     writer = VtkFrames if fmt == "vtk" else NpzFrames
-    return writer(folder, run_metadata(sim))
+    return writer(folder, run_metadata(sim), surface=surface)
+
+
+def write_surface_svg(folder: Path, count: int, sim, metadata: dict[str, Any],
+                      polys=None) -> None:
+    from .surface import write_svg
+
+    write_svg(Path(folder) / f"surface_{count:05d}.svg", sim, metadata, polys)
 
 
 class NpzFrames:
-    """frame_NNNNN.npz, one per write()."""
+    """frame_NNNNN.npz, one per write(); with surface, surface_NNNNN.svg too."""
 
-    def __init__(self, folder: Path, metadata: dict[str, Any]):
+    def __init__(self, folder: Path, metadata: dict[str, Any], surface: bool = False):
         self.folder = Path(folder)
+        self.metadata = metadata
         self.metadata_json = json.dumps(metadata, sort_keys=True)
+        self.surface = surface
         self.count = 0
 
     def resume(self, count: int) -> None:
@@ -101,20 +111,26 @@ class NpzFrames:
             np.savez(f, time=sim.time, positions=sim.positions, velocities=sim.velocities,
                      densities=sim.densities, pressures=sim.pressures, ids=sim.ids,
                      metadata=np.array(self.metadata_json))
+        if self.surface:
+            write_surface_svg(self.folder, self.count, sim, self.metadata)
         self.count += 1
         return path
 
 
 class VtkFrames:
-    """frame_NNNNN.vtu per write(), the walls whenever they change, and frames.pvd."""
+    """frame_NNNNN.vtu per write(), the walls whenever they change, and frames.pvd;
+    with surface, the liquid's outline as surface_NNNNN.vtu (and .svg)."""
 
-    def __init__(self, folder: Path, metadata: dict[str, Any]):
+    def __init__(self, folder: Path, metadata: dict[str, Any], surface: bool = False):
         self.vtk = require_vtk_writer()
         self.folder = Path(folder)
+        self.metadata = metadata
         # ASCII (VTK's string arrays are bytes) and sorted, so that files compare
         self.metadata_json = json.dumps(metadata, sort_keys=True, ensure_ascii=True)
+        self.surface = surface
         self.count = 0
-        self.datasets: list[tuple[float, str, str | None]] = []  # time, frame, walls file
+        # time, and the frame's particles, walls and surface files
+        self.datasets: list[tuple[float, str, str | None, str | None]] = []
         self._walls: np.ndarray | None = None
         self._walls_file: str | None = None
 
@@ -125,7 +141,7 @@ class VtkFrames:
         pvd = self.folder / PVD_NAME
         if not pvd.exists():
             return
-        walls: dict[str, str] = {}
+        parts: dict[str, dict[str, str]] = {"1": {}, "2": {}}  # walls, surface
         frames = []
         try:
             root = ET.parse(pvd).getroot()
@@ -133,11 +149,12 @@ class VtkFrames:
             return
         for d in root.iter("DataSet"):
             t, file = d.get("timestep"), d.get("file")
-            if d.get("part") == "1":
-                walls[t] = file
+            if d.get("part") in parts:
+                parts[d.get("part")][t] = file
             elif file.startswith("frame_") and int(file[6:11]) < count:
                 frames.append((t, file))
-        self.datasets = [(float(t), file, walls.get(t)) for t, file in frames]
+        self.datasets = [(float(t), file, parts["1"].get(t), parts["2"].get(t))
+                         for t, file in frames]
 
     def write(self, sim) -> Path:
         walls_file = self._write_walls(np.asarray(sim.walls, dtype=np.float64).reshape(-1, 2, 2))
@@ -153,7 +170,8 @@ class VtkFrames:
         write_vtu(self.folder / name, points, cells, point_data=fields,
                   field_data={"TimeValue": float(sim.time), METADATA_FIELD: self.metadata_json},
                   vtk=self.vtk)
-        self.datasets.append((float(sim.time), name, walls_file))
+        surface_file = self._write_surface(sim) if self.surface else None
+        self.datasets.append((float(sim.time), name, walls_file, surface_file))
         with replacing(self.folder / PVD_NAME) as tmp:
             tmp.write_text(self.pvd_text(), encoding="ascii")
         self.count += 1
@@ -177,6 +195,25 @@ class VtkFrames:
                   field_data={METADATA_FIELD: self.metadata_json}, vtk=self.vtk)
         return self._walls_file
 
+    def _write_surface(self, sim) -> str:
+        """The liquid's outline as polylines (and as SVG), this frame's part 2."""
+        from .surface import contour_lines, sim_field, sim_polygons
+
+        name = f"surface_{self.count:05d}.vtu"
+        grid = sim_field(sim)
+        outline = contour_lines(grid) or [np.zeros((0, 2))]
+        points = _xyz(np.concatenate(outline))
+        cells = (np.arange(len(points), dtype=np.int64),
+                 np.cumsum([len(line) for line in outline]).astype(np.int64),
+                 np.full(len(outline), _VTK_POLY_LINE, dtype=np.uint8))
+        if len(points) == 0:
+            cells = tuple(c[:0] for c in cells)
+        write_vtu(self.folder / name, points, cells,
+                  field_data={"TimeValue": float(sim.time), METADATA_FIELD: self.metadata_json},
+                  vtk=self.vtk)
+        write_surface_svg(self.folder, self.count, sim, self.metadata, sim_polygons(sim, grid))
+        return name
+
     def pvd_text(self) -> str:
         """The collection of the frames written so far (times exact: repr)."""
         comment = self.metadata_json.replace("--", "-\\u002d")  # "--" may not occur in one
@@ -184,12 +221,15 @@ class VtkFrames:
                  '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
                  f"  <!-- {PVD_COMMENT} {comment} -->",
                  "  <Collection>"]
-        for t, frame, walls in self.datasets:
+        for t, frame, walls, surface in self.datasets:
             lines.append(f'    <DataSet timestep="{t!r}" part="0" name="particles" '
                          f"file={quoteattr(frame)}/>")
             if walls is not None:
                 lines.append(f'    <DataSet timestep="{t!r}" part="1" name="walls" '
                              f"file={quoteattr(walls)}/>")
+            if surface is not None:
+                lines.append(f'    <DataSet timestep="{t!r}" part="2" name="surface" '
+                             f"file={quoteattr(surface)}/>")
         lines += ["  </Collection>", "</VTKFile>", ""]
         return "\n".join(lines)
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from .scene import Scene, load_scene
 from .simulation import InstabilityError, Simulation
+from .surface import polygons as liquid_polygons
 
 BACKGROUND = (18, 20, 28)
 WALL = (225, 225, 225)
@@ -57,9 +58,9 @@ def ramp(stops, n: int = 256) -> np.ndarray:
 
 SEQUENTIAL = ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250],
                    [255, 255, 255]])
-# Liquid surface: 256 depth shades, then the rim colour, then the background.
-SURFACE_LUT = np.vstack([ramp([[120, 200, 255], [15, 60, 150]]),
-                         [[220, 245, 255], list(BACKGROUND)]]).astype(np.uint8)
+LIQUID = (40, 110, 200)  # the liquid mode's body
+RIM = (180, 230, 255)  # and its surface
+SMOOTH_FINE = 10_000  # particles up to which the liquid's grid is half a spacing
 DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
                   [200, 40, 40]])
 
@@ -129,7 +130,6 @@ class Renderer:
         self.size = size
         self.camera = Camera(self.sim.scene, size)
         self.pixels = np.empty((size[0], size[1]), np.uint32)  # packed 0xRRGGBB
-        self._surface_cache = None
 
     # -- scalar fields and their colour scales
     def field(self) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -182,40 +182,33 @@ class Renderer:
                     flat[base + (dx * h + dy)] = colour
 
     def draw_surface(self, surface) -> None:
-        """The liquid as a smooth body: particles binned on a grid of about one
-        spacing, blurred, thresholded at a third of the bulk coverage, shaded by
-        depth below the surface, then scaled up onto the whole window."""
-        pg = self.pygame
-        w, h = self.size
+        """The liquid as a smooth body: the outline of ``sphfluid.surface`` (the
+        kernel sum's level 0.5 by marching squares, on a grid of half a spacing,
+        a whole one above SMOOTH_FINE particles, coarser when zoomed out so a
+        cell stays above 1.5 pixels), filled, with its holes, and edged with an
+        anti-aliased rim."""
+        from pygame import gfxdraw
+
+        surface.fill(BACKGROUND)
         if self.sim.n_particles == 0:
-            surface.fill(BACKGROUND)
             return
-        cell = max(1.0, self.sim.scene.spacing * self.camera.scale)  # pixels
-        gw, gh = max(1, round(w / cell)), max(1, round(h / cell))
-        cx, cy = w / gw, h / gh  # exact cell size, so the scaled image lines up
-        sx, sy = self.camera.to_screen(self.sim.positions)
-        gx, gy = (sx / cx).astype(np.int64), (sy / cy).astype(np.int64)
-        ok = (gx >= 0) & (gx < gw) & (gy >= 0) & (gy < gh)
-        grid = np.bincount(gx[ok] * gh + gy[ok], minlength=gw * gh).reshape(gw, gh)
-        grid = blur(grid.astype(np.float32))
-        inside = grid > 0.35  # in the bulk a cell holds about one particle
-        # Darker with depth below the nearest surface above: the run of liquid
-        # cells counted from the top, restarting below every gap.
-        count = np.cumsum(inside, axis=1, dtype=np.int32)
-        depth = count - np.maximum.accumulate(np.where(inside, 0, count), axis=1)
-        # Shade index: 0 at the surface, the last shade half a metre down.
-        cap = max(1, int(np.ceil(0.5 * self.camera.scale / cy)))
-        level = np.minimum(depth, cap)
-        level[inside & ~np.roll(inside, 1, axis=1)] = cap + 1  # a bright rim on top
-        level[~inside] = cap + 2
-        if self._surface_cache is None or self._surface_cache[0] != (gw, gh, cap):
-            packed = pack(SURFACE_LUT)
-            lut = np.concatenate([packed[np.linspace(0, 255, cap + 1).astype(int)],
-                                  packed[256:]])
-            self._surface_cache = ((gw, gh, cap), pg.Surface((gw, gh), depth=32), lut)
-        _, small, lut = self._surface_cache
-        pg.surfarray.blit_array(small, np.take(lut, level))
-        pg.transform.scale(small, (w, h), surface)  # nearest: cells are a few pixels
+        fine = 0.5 if self.sim.n_particles <= SMOOTH_FINE else 1.0
+        cell = max(fine * self.sim.scene.spacing, 1.5 / self.camera.scale)
+        for outline, holes in liquid_polygons(self.sim, cell):
+            rings = [(self.screen_ring(outline), LIQUID)]
+            rings += [(self.screen_ring(hole), BACKGROUND) for hole in holes]
+            for ring, colour in rings:
+                if len(ring) >= 3:
+                    gfxdraw.filled_polygon(surface, ring, colour)
+            for ring, _ in rings:
+                if len(ring) >= 2:
+                    self.pygame.draw.aalines(surface, RIM, True, ring)
+
+    def screen_ring(self, ring: np.ndarray) -> list[tuple[int, int]]:
+        """A ring's points in pixels, clamped to the 16-bit range pygame draws in."""
+        sx, sy = self.camera.to_screen(ring[:-1])  # a closed ring repeats its first point
+        xy = np.clip(np.rint(np.column_stack([sx, sy])), -30000, 30000).astype(np.int64)
+        return [tuple(p) for p in xy.tolist()]
 
     def draw_colour_bar(self, surface) -> None:
         _, lut, low, high = self.field()
@@ -341,16 +334,6 @@ def pack(rgb) -> np.ndarray:
     32-bit surfaces used here."""
     rgb = np.asarray(rgb, np.uint32)
     return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
-
-
-def blur(grid: np.ndarray) -> np.ndarray:
-    """A separable binomial [1 4 6 4 1]/16 blur along both axes, by shifted slices."""
-    n, m = grid.shape
-    g = np.pad(grid, ((2, 2), (0, 0)))
-    grid = (g[0:n] + g[4:n + 4] + 4 * (g[1:n + 1] + g[3:n + 3]) + 6 * g[2:n + 2]) / 16
-    g = np.pad(grid, ((0, 0), (2, 2)))
-    return (g[:, 0:m] + g[:, 4:m + 4] + 4 * (g[:, 1:m + 1] + g[:, 3:m + 3])
-            + 6 * g[:, 2:m + 2]) / 16
 
 
 def save_scene(sim: Simulation, path: Path) -> Path:
@@ -559,10 +542,128 @@ class _Window:
                 + ("  PAUSED" if self.paused else ""))
 
 
+VIDEO_INSTALL = 'pip install "sphfluid[video]"  (or: pip install imageio-ffmpeg)'
+
+
+class PngFrames:
+    """frame_NNNNN.png in a folder, each written atomically."""
+
+    def __init__(self, folder: Path, size: tuple[int, int], fps: float):
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+        self.count = 0
+
+    def add(self, pygame, surface) -> None:
+        from .output import replacing
+
+        with replacing(self.folder / f"frame_{self.count:05d}.png") as tmp:
+            pygame.image.save(surface, str(tmp))
+        self.count += 1
+
+    def close(self) -> None:
+        pass
+
+    def abort(self) -> None:
+        pass
+
+
+class _MovieFile:
+    """A GIF or MP4 written under a temporary name, renamed into place by close()."""
+
+    def __init__(self, path: Path):
+        from .output import replacing
+
+        self.path = path
+        self._replacing = replacing(path)
+        self.tmp = self._replacing.__enter__()
+
+    def _finish(self, error: BaseException | None) -> None:
+        if error is None:
+            self._replacing.__exit__(None, None, None)
+        else:
+            self._replacing.__exit__(type(error), error, error.__traceback__)
+
+
+class GifFrames(_MovieFile):
+    """An animated GIF (Pillow): each frame reduced to a palette as it comes."""
+
+    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+        from PIL import Image
+
+        super().__init__(path)
+        self.image, self.size, self.fps = Image, size, fps
+        self.frames: list = []
+
+    def add(self, pygame, surface) -> None:
+        rgb = self.image.frombytes("RGB", self.size, pygame.image.tostring(surface, "RGB"))
+        self.frames.append(rgb.quantize(colors=256, method=self.image.Quantize.MEDIANCUT))
+
+    def close(self) -> None:
+        self.frames[0].save(self.tmp, format="GIF", save_all=True,
+                            append_images=self.frames[1:], duration=round(1000 / self.fps),
+                            loop=0)
+        self._finish(None)
+
+    def abort(self) -> None:
+        self._finish(RuntimeError("aborted"))
+
+
+class Mp4Frames(_MovieFile):
+    """An H.264 MP4 by the ffmpeg that imageio-ffmpeg ships, frames streamed to it."""
+
+    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+        import imageio_ffmpeg
+
+        super().__init__(path)
+        # yuv420p (what players expect) needs even sides: pad an odd one by a pixel
+        self.writer = imageio_ffmpeg.write_frames(
+            str(self.tmp), size, fps=fps, codec="libx264", quality=7, macro_block_size=1,
+            output_params=["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-f", "mp4"])
+        self.writer.send(None)  # start ffmpeg
+
+    def add(self, pygame, surface) -> None:
+        self.writer.send(pygame.image.tostring(surface, "RGB"))
+
+    def close(self) -> None:
+        self.writer.close()
+        self._finish(None)
+
+    def abort(self) -> None:
+        try:
+            self.writer.close()
+        finally:
+            self._finish(RuntimeError("aborted"))
+
+
+def frame_sink(out: Path, size: tuple[int, int], fps: float):
+    """The writer record() renders into: PNGs in a folder, a .gif or an .mp4."""
+    suffix = out.suffix.lower()
+    if suffix == ".gif":
+        try:
+            import PIL  # noqa: F401
+        except ImportError:
+            raise ValueError("writing a GIF needs Pillow (pip install pillow); "
+                             "or give a folder to write PNG frames") from None
+        return GifFrames(out, size, fps)
+    if suffix == ".mp4":
+        try:
+            import imageio_ffmpeg  # noqa: F401
+        except ImportError:
+            raise ValueError(f"writing an MP4 needs imageio-ffmpeg: {VIDEO_INSTALL}; or write "
+                             "a .gif, or a folder of PNG frames") from None
+        return Mp4Frames(out, size, fps)
+    if suffix:
+        raise ValueError(f"--out: expected a folder for PNG frames, a .gif or an .mp4 file, "
+                         f"got {out}")
+    return PngFrames(out, size, fps)
+
+
 def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
            fps: float = 30.0, mode: str = "speed", size: tuple[int, int] = (800, 600),
            threads: int | None = None, progress=None) -> int:
-    """Render frames headless: a folder of PNGs, or an animated GIF (needs Pillow).
+    """Render frames headless: a folder of PNGs, an animated GIF, or an MP4 video
+    (needs imageio-ffmpeg: the ``video`` extra), playing at fps frames per
+    simulated second. A GIF or MP4 appears whole, at the end, or not at all.
 
     Returns the number of frames written.
     """
@@ -572,45 +673,33 @@ def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     import pygame
 
+    out = Path(out)
     scene = load_scene(scene_path)
     duration = duration if duration is not None else scene.duration
     if duration is None:
         raise ValueError("no duration given and the scene has no 'duration'")
-    gif = out.suffix.lower() == ".gif"
-    if gif:
-        try:
-            from PIL import Image
-        except ImportError:
-            raise ValueError("writing a GIF needs Pillow (pip install pillow); "
-                             "or give a folder to write PNG frames") from None
-    elif out.suffix:
-        raise ValueError(f"--out: expected a folder for PNG frames or a .gif file, got {out}")
     sim = Simulation(scene, threads=threads)
     pygame.display.init()
     pygame.font.init()
     try:
+        sink = frame_sink(out, size, fps)
         surface = pygame.Surface(size)
         renderer = Renderer(sim, size, mode)
         n_frames = int(duration * fps + 1e-9) + 1
-        images = []
-        if not gif:
-            out.mkdir(parents=True, exist_ok=True)
-        for k in range(n_frames):
-            sim.advance_to(k / fps)
-            surface.fill(BACKGROUND)
-            renderer.draw(surface)
-            label = renderer.font.render(f"t = {sim.time:.3f} s", True, TEXT)
-            surface.blit(label, (8, 5))
-            if gif:
-                raw = pygame.image.tostring(surface, "RGB")
-                images.append(Image.frombytes("RGB", size, raw))
-            else:
-                pygame.image.save(surface, str(out / f"frame_{k:05d}.png"))
-            if progress:
-                progress(k + 1, n_frames, sim)
-        if gif:
-            images[0].save(out, save_all=True, append_images=images[1:],
-                           duration=round(1000 / fps), loop=0)
+        try:
+            for k in range(n_frames):
+                sim.advance_to(k / fps)
+                surface.fill(BACKGROUND)
+                renderer.draw(surface)
+                label = renderer.font.render(f"t = {sim.time:.3f} s", True, TEXT)
+                surface.blit(label, (8, 5))
+                sink.add(pygame, surface)
+                if progress:
+                    progress(k + 1, n_frames, sim)
+        except BaseException:
+            sink.abort()
+            raise
+        sink.close()
     finally:
         pygame.quit()
     return n_frames
