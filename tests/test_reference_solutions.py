@@ -261,3 +261,25 @@ def test_ghia_cavity_centrelines_load_in_order():
     assert u.min() == pytest.approx(-0.21090) and v.min() == pytest.approx(-0.24533)
     with pytest.raises(ValueError, match="unknown series"):
         ghia_cavity("w")
+
+
+def test_buchner_wall_pressure_loader_and_error():
+    t, p = ref.buchner_pressure()
+    assert len(t) == 98 and np.all(np.diff(t) >= 0)
+    assert 2.0 < t[0] < 2.1 and 7.2 < t[-1] < 7.4
+    # the measured curve: quiet before the surge, the first peak near t* 2.75
+    assert np.abs(p[t < 2.4]).max() < 0.05
+    assert 0.6 < p[(t > 2.6) & (t < 3.0)].max() < 0.8
+    assert ref.mean_pressure_error(t, p) == 0.0
+    window = (t >= 2.0) & (t <= 7.0)
+    zero = ref.mean_pressure_error(np.array([0.0, 10.0]), np.zeros(2))
+    assert zero == pytest.approx(np.abs(p[window]).mean())
+    # the published delta-SPH against the same points: 0.12 - 0.15
+    for series in ("marrone_h40", "marrone_h80", "marrone_h320"):
+        ts, ps = ref.buchner_pressure(series)
+        assert len(ts) == 525
+        assert 0.1 < ref.mean_pressure_error(ts, ps) < 0.15
+    with pytest.raises(ValueError, match="unknown series"):
+        ref.buchner_pressure("P2")
+    with pytest.raises(ValueError, match="fewer than 3"):
+        ref.mean_pressure_error(np.array([0.0, 2.05]), np.zeros(2))

@@ -567,6 +567,48 @@ def _mean_abs_error(x_sim: FloatArray, y_sim: FloatArray, ref: ExperimentalSerie
 # Lid-driven cavity
 # --------------------------------------------------------------------------------------
 
+# --------------------------------------------------------------------------------------
+# Dam break against a wall: pressure at the far wall (Buchner 2002)
+# --------------------------------------------------------------------------------------
+
+_BUCHNER_FILE = "buchner_2002_p1.csv"
+BUCHNER_SERIES = ("buchner_P1", "marrone_h40", "marrone_h80", "marrone_h320")
+
+
+def buchner_pressure(series: str = "buchner_P1") -> tuple[FloatArray, FloatArray]:
+    """Pressure at sensor P1 on the far wall of the dam break of Buchner (2002),
+    ``(t_star, p_star)`` in increasing t_star = t sqrt(g/H), p_star = p / (rho g H).
+
+    ``"buchner_P1"`` is the experiment (Buchner, PhD thesis, TU Delft, 2002; the
+    set-up of Zhou, De Kat & Buchner 1999); ``"marrone_h40"`` etc. the delta-SPH
+    results of Marrone et al. (2011, CMAME 200:1526) at H/dx = 40, 80, 320. Both
+    digitised from the published plots (the data file's header says by whom).
+    """
+    if series not in BUCHNER_SERIES:
+        raise ValueError(f"unknown series {series!r}; expected one of {list(BUCHNER_SERIES)}")
+    text = (resources.files("sphfluid.validation") / "data" / _BUCHNER_FILE).read_text("utf-8")
+    rows = [row for row in csv.DictReader(line for line in io.StringIO(text)
+                                          if not line.startswith("#"))
+            if row["series"] == series]
+    t = np.array([float(r["t_star"]) for r in rows])
+    p = np.array([float(r["p_star"]) for r in rows])
+    order = np.argsort(t, kind="stable")
+    return t[order], p[order]
+
+
+def mean_pressure_error(t_star: ArrayLike, p_star: ArrayLike,
+                        window: tuple[float, float] = (2.0, 7.0)) -> float:
+    """Mean |p_sim - p_exp| / (rho g H) over Buchner's P1 points with t_star in
+    window (and within the simulated times), p_sim interpolated linearly."""
+    t = np.asarray(t_star, dtype=float)
+    p = np.asarray(p_star, dtype=float)
+    te, pe = buchner_pressure("buchner_P1")
+    use = (te >= window[0]) & (te <= window[1]) & (te >= t[0]) & (te <= t[-1])
+    if use.sum() < 3:
+        raise ValueError("the simulated times cover fewer than 3 of the measured points")
+    return float(np.mean(np.abs(np.interp(te[use], t, p) - pe[use])))
+
+
 _GHIA_FILE = "ghia_1982_re100.csv"
 _GHIA_SERIES = ("u_vertical", "v_horizontal")
 

@@ -38,6 +38,10 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("dam_break", "wcsph", 10): 0.11,  # 0.0759
     ("dam_break", "wcsph", 15): 0.21,  # 0.148
     ("dam_break", "wcsph", 20): 0.26,  # 0.18
+    ("wall_pressure", "seed", 10): 2.1,  # 1.444
+    ("wall_pressure", "seed", 20): 0.94,  # 0.6698
+    ("wall_pressure", "wcsph", 10): 0.37,  # 0.2622
+    ("wall_pressure", "wcsph", 20): 0.33,  # 0.2327
     ("poiseuille", "seed", 10): 0.48,  # 0.3389
     ("poiseuille", "seed", 15): 0.39,  # 0.2753
     ("poiseuille", "seed", 20): 0.35,  # 0.2466
@@ -239,6 +243,8 @@ def _profile(name: str, results: list[Result], ax) -> None:
         ax.set_xlabel("T = t sqrt(2g/a)")
         ax.set_ylabel("Z = front / a")
         ax.set_ylim(0.9, 4.3)
+    elif name == "wall_pressure":
+        _profile_wall_pressure(best, ax)
     elif name == "hydrostatic":
         H = case.depth
         scale = 1000.0 * 9.81 * H  # rho0 g H, the scene's rho0
@@ -291,6 +297,21 @@ def _profile(name: str, results: list[Result], ax) -> None:
     ax.grid(True, alpha=0.3)
     if ax.lines or ax.collections:
         ax.legend(fontsize=8)
+
+
+def _profile_wall_pressure(best: dict, ax) -> None:
+    from . import reference as ref
+
+    t, p = ref.buchner_pressure("buchner_P1")
+    ax.plot(t, p, "ks", ms=3, label="Buchner 2002, P1 (experiment)")
+    t, p = ref.buchner_pressure("marrone_h80")
+    ax.plot(t, p, "k--", lw=0.8, label="Marrone et al. 2011, delta-SPH, H/dx = 80")
+    for m, r in best.items():
+        ax.plot(r.curves["t_star"], r.curves["p_star"], color=COLOURS[m], lw=1,
+                label=f"{m}, n={r.n}")
+    ax.set_xlim(1.5, 7.5)
+    ax.set_xlabel("t sqrt(g/H)")
+    ax.set_ylabel("p / (rho g H) at P1 (0.267 H)")
 
 
 def _profile_oscillation(best: dict, ax) -> None:
