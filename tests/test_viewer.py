@@ -289,3 +289,25 @@ def test_a_recording_that_fails_leaves_no_file(tmp_path, monkeypatch, name):
     with pytest.raises(sphfluid.InstabilityError):
         record(BASE_SCENE, tmp_path / name, duration=0.2, fps=20, size=(120, 90))
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("mode", ["pressure", "surface"])
+def test_the_scenes_probes_are_marked(display, mode):
+    """A ring at a point probe, the dashed line of a surface probe and a wall
+    group drawn over its wall, in the probe colour; none without probes."""
+    from sphfluid.viewer import PROBE
+
+    d = json.loads((ROOT / "scenes" / "water" / "hydrostatic.json").read_text())
+    d["probes"] = {"points": [{"name": "p", "at": [0.5, 1.3]}], "surface": [{"name": "s",
+                   "x": 0.25}], "walls": [{"name": "w", "segments": [1]}]}
+    img, r = render(sphfluid.Simulation(d), mode, size=(500, 400))
+    probe = np.all(img == PROBE, axis=2)
+    cx, cy = (round(float(v)) for v in r.camera.to_screen(np.array([0.5, 1.3])))
+    assert probe[cx - 6:cx + 7, cy - 6:cy + 7].sum() > 10  # the ring
+    sx, _ = r.camera.to_screen(np.array([0.25, 0.0]))
+    assert probe[round(float(sx))].sum() > 50  # the dashed line, top to bottom
+    fx, fy = (round(float(v)) for v in r.camera.to_screen(np.array([0.7, 0.0])))
+    assert probe[fx, fy - 2:fy + 3].any()  # the floor, drawn over
+    del d["probes"]
+    img, _ = render(sphfluid.Simulation(d), mode, size=(500, 400))
+    assert not np.all(img == PROBE, axis=2).any()

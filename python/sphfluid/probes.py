@@ -6,7 +6,7 @@ normalisation (docs/output.md, "Probes"):
 
 - points: pressure, velocity and density at a fixed point;
 - surface: the free-surface height along a vertical line x = X;
-- walls: the pressure force of the fluid on a group of wall segments, per
+- walls: the pressure and viscous forces of the fluid on a group of wall segments, per
   metre of depth.
 
 ``sample(sim, probes)`` returns one dict of values for the current state;
@@ -36,7 +36,7 @@ _SURFACE_KEYS = ("name", "x")
 _WALL_KEYS = ("name", "segments")
 POINT_COLUMNS = ("p", "u", "v", "rho")  # Pa, m/s, m/s, kg/m^3
 SURFACE_COLUMNS = ("height",)  # m
-WALL_COLUMNS = ("fx", "fy")  # N/m
+WALL_COLUMNS = ("fx", "fy", "fx_viscous", "fy_viscous")  # N/m: pressure and viscous parts
 
 
 @dataclass(frozen=True)
@@ -234,33 +234,77 @@ def _surface_height(field: _Field, x: float, y0: float, y1: float, dx: float) ->
     return float(ys[k] + t * (ys[k + 1] - ys[k]))
 
 
-def _wall_force(field: _Field, segments: np.ndarray, dx: float) -> tuple[float, float]:
-    """The pressure force (N/m) of the fluid on the segments ((m, 2, 2), m):
-    F = -sum over both sides of the integral of p_wall n ds, n the side's
-    normal, pointing into the fluid. p_wall at each station (midpoints of
-    pieces about dx/2 long) is extrapolated linearly to the wall from the
-    Shepard pressures h/2 and h off it along n: 2 p(h/2) - p(h). A side whose
-    sample at h/2 is in air (kernel sum below MIN_KERNEL_SUM) has no fluid and
-    adds nothing; where only the sample at h is (a film thinner than h), p(h/2)
-    is taken as it is."""
+def _wall_force(field: _Field, segments: np.ndarray, wall_velocity: np.ndarray, eta: float,
+                dx: float) -> tuple[float, float, float, float]:
+    """The force (N/m) of the fluid on the segments ((m, 2, 2), m), its pressure
+    part and its viscous part, each summed over both sides of every segment.
+
+    Pressure: F = -integral of p_wall n ds, n the side's normal, pointing into
+    the fluid. p_wall at each station (midpoints of pieces about dx/2 long) is
+    extrapolated linearly to the wall from the Shepard pressures h/2 and h off
+    it along n: 2 p(h/2) - p(h). A side whose sample at h/2 is in air (kernel
+    sum below MIN_KERNEL_SUM) has no fluid and adds nothing; where only the
+    sample at h is (a film thinner than h), p(h/2) is taken as it is.
+
+    Viscous: F = integral of eta du_t/dn t ds, t along the segment, u_t the
+    fluid's velocity along t relative to the wall's own (wall_velocity, (m, 2)),
+    its slope at the wall from a weighted least-squares fit u_t = a s + b s^2
+    (s the distance from the wall, u_t = 0 on it: no slip) to the particles
+    within h of the station on that side, weighted by the kernel; a side with
+    fewer than 3 such particles adds nothing."""
     h = field.h
-    fx = fy = 0.0
-    for a, b in segments:
+    fx = fy = vx = vy = 0.0
+    for (a, b), u_wall in zip(segments, wall_velocity):
         t = b - a
         length = float(np.hypot(*t))
         pieces = max(1, int(math.ceil(length / (dx / 2))))
         s = (np.arange(pieces) + 0.5) / pieces
         stations = a + s[:, None] * t
+        tangent = t / length
         normal = np.array([-t[1], t[0]]) / length
+        ds = length / pieces
         for n in (normal, -normal):
             _, near = field.at(stations + 0.5 * h * n)
             _, far = field.at(stations + h * n)
             p_near, p_far = near[:, 0], far[:, 0]
             p_wall = np.where(np.isnan(p_far), p_near, 2.0 * p_near - p_far)
-            force = -np.nansum(p_wall) * (length / pieces)  # along n
+            force = -np.nansum(p_wall) * ds  # along n
             fx += force * n[0]
             fy += force * n[1]
-    return fx, fy
+            if eta > 0:
+                shear = eta * np.nansum(_wall_slopes(field, stations, n, tangent, u_wall)) * ds
+                vx += shear * tangent[0]
+                vy += shear * tangent[1]
+    return fx, fy, vx, vy
+
+
+def _wall_slopes(field: _Field, stations: np.ndarray, n: np.ndarray, t: np.ndarray,
+                 u_wall: np.ndarray) -> np.ndarray:
+    """du_t/dn at the wall at each station on the side n (NaN where fewer than 3
+    particles are in reach on that side): the slope a of the kernel-weighted
+    least-squares fit u_t - u_wall.t = a s + b s^2 over the particles at
+    distances s = (x_j - station).n in (0, h], within h of the station."""
+    h = field.h
+    lo, hi = stations.min(0) - h, stations.max(0) + h
+    near = np.flatnonzero(np.all((field.pos >= lo) & (field.pos <= hi), axis=1))
+    out = np.full(len(stations), np.nan)
+    if len(near) == 0:
+        return out
+    pos, ut = field.pos[near], (field.vel[near] - u_wall) @ t
+    step = max(1, _BLOCK // len(near))
+    for k in range(0, len(stations), step):
+        d = pos[None, :, :] - stations[k:k + step, None, :]
+        sn = d @ n  # distance from the wall, (stations, particles)
+        w = wendland(np.sqrt((d * d).sum(-1)), h) * (sn > 0)
+        # normal equations of min sum w (a s + b s^2 - u)^2
+        s2 = sn * sn
+        m11, m12, m22 = (w * s2).sum(1), (w * s2 * sn).sum(1), (w * s2 * s2).sum(1)
+        r1, r2 = (w * sn * ut).sum(1), (w * s2 * ut).sum(1)
+        det = m11 * m22 - m12 * m12
+        enough = ((w > 0).sum(1) >= 3) & (det > 1e-12 * m11 * m22)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[k:k + step] = np.where(enough, (r1 * m22 - r2 * m12) / det, np.nan)
+    return out
 
 
 def sample(sim, probes: Probes | None = None) -> dict[str, float]:
@@ -270,7 +314,8 @@ def sample(sim, probes: Probes | None = None) -> dict[str, float]:
     Points: p (Pa), u, v (m/s), rho (kg/m^3), NaN where the kernel sum is
     below MIN_KERNEL_SUM (air, or the edge of a free surface). Surface:
     height (m), NaN with no fluid on the line. Walls: fx, fy (N/m), the
-    pressure force of the fluid on the group (no viscous part)."""
+    pressure force of the fluid on the group, and fx_viscous, fy_viscous its
+    viscous (shear) force."""
     probes = probes if probes is not None else sim.scene.probes
     out: dict[str, float] = {"time": float(sim.time)}
     if probes is None:
@@ -287,9 +332,15 @@ def sample(sim, probes: Probes | None = None) -> dict[str, float]:
                                                   scene.domain_max[1], scene.spacing)
     if probes.walls:
         walls = np.asarray(sim.walls, float).reshape(-1, 2, 2)
+        wall_velocity = np.zeros((len(walls), 2))
+        if scene.wall_velocities and len(scene.wall_velocities) == len(walls):
+            wall_velocity[:] = scene.wall_velocities
         for w in probes.walls:
-            fx, fy = _wall_force(field, walls[list(w.segments)], scene.spacing)
-            out[f"{w.name}.fx"], out[f"{w.name}.fy"] = float(fx), float(fy)
+            index = list(w.segments)
+            forces = _wall_force(field, walls[index], wall_velocity[index], scene.viscosity,
+                                 scene.spacing)
+            for q, value in zip(WALL_COLUMNS, forces):
+                out[f"{w.name}.{q}"] = float(value)
     return out
 
 

@@ -60,6 +60,7 @@ SEQUENTIAL = ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250
                    [255, 255, 255]])
 LIQUID = (40, 110, 200)  # the liquid mode's body
 RIM = (180, 230, 255)  # and its surface
+PROBE = (255, 170, 40)  # the scene's probes
 SMOOTH_FINE = 10_000  # particles up to which the liquid's grid is half a spacing
 DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
                   [200, 40, 40]])
@@ -155,8 +156,47 @@ class Renderer:
         for a, b in self.sim.scene.walls:
             (sx, sy) = self.camera.to_screen(np.array([a, b]))
             self.pygame.draw.line(surface, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
+        self.draw_probes(surface)
         if self.mode != "surface":
             self.draw_colour_bar(surface)
+
+    def draw_probes(self, surface) -> None:
+        """The scene's probes, named: a ring at each point, a dashed vertical line
+        for each surface-height line, and each wall group drawn over its walls."""
+        probes = self.sim.scene.probes
+        if probes is None:
+            return
+        pg, cam = self.pygame, self.camera
+        labels = []
+        walls = self.sim.scene.walls
+        for w in probes.walls:
+            mid = []
+            for k in w.segments:
+                if k < len(walls):  # (the editor may have removed walls since)
+                    sx, sy = cam.to_screen(np.array(walls[k]))
+                    pg.draw.line(surface, PROBE, (sx[0], sy[0]), (sx[1], sy[1]), 4)
+                    mid.append((sx.mean(), sy.mean()))
+            if mid:
+                labels.append((w.name, *mid[len(mid) // 2]))
+        y0, y1 = self.sim.scene.domain_min[1], self.sim.scene.domain_max[1]
+        for line in probes.surface:
+            sx, sy = cam.to_screen(np.array([[line.x, y0], [line.x, y1]]))
+            x, dash = round(float(sx[0])), 6
+            for top in range(round(float(sy[1])), round(float(sy[0])), 2 * dash):
+                pg.draw.line(surface, PROBE, (x, top), (x, min(top + dash, sy[0])), 1)
+            labels.append((line.name, x, sy[1] + 8))
+        for point in probes.points:
+            sx, sy = cam.to_screen(np.array([point.at]))
+            centre = (round(float(sx[0])), round(float(sy[0])))
+            pg.draw.circle(surface, BACKGROUND, centre, 7, 2)
+            pg.draw.circle(surface, PROBE, centre, 5, 2)
+            labels.append((point.name, *centre))
+        for name, x, y in labels:  # on a dark box, readable over any colour
+            text = self.font.render(name, True, PROBE)
+            box = pg.Surface((text.get_width() + 4, text.get_height() + 2), pg.SRCALPHA)
+            box.fill((*BACKGROUND, 190))
+            surface.blit(box, (x + 5, y - 8))
+            surface.blit(text, (x + 7, y - 7))
 
     def screen_points(self) -> tuple[np.ndarray, np.ndarray]:
         sx, sy = self.camera.to_screen(self.sim.positions)
