@@ -61,7 +61,69 @@ def test_a_valid_scene_passes_with_its_numbers(tmp_path, scene_dict, capsys):
     assert code == 0, out
     assert "particles    100 (~0.0 MiB" in out  # 10 x 10 at 0.05 m
     assert "steps        50 to t = 0.05 s" in out
+    assert "run time     about " in out and "50 steps at " in out  # the first ones timed
     assert "0 error(s), 0 warning(s)" in out
+
+
+def test_a_run_that_blows_up_in_its_first_steps_is_an_error(tmp_path, scene_dict, capsys,
+                                                            monkeypatch):
+    calls, real = [], sphfluid.Simulation.step
+
+    def step(self, n=1):
+        calls.append(n)
+        if len(calls) == 4:
+            raise sphfluid.InstabilityError("step 4: [check: energy]")
+        real(self, n)
+
+    monkeypatch.setattr(sphfluid.Simulation, "step", step)
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 2
+    assert "error: solver: the run blows up in its first 4 steps: step 4: [check: energy]" in out
+    assert "run time" not in out and "1 error(s)" in out
+
+
+def test_run_time_scales_with_the_steps(scene_dict):
+    """Twice the duration at a fixed step: twice the steps in the estimate."""
+    from sphfluid.check import run_time
+
+    lines = []
+    for duration in (0.02, 0.04):
+        scene_dict["duration"] = duration
+        line, error = run_time(sphfluid.load_scene(scene_dict), threads=1)
+        assert error is None
+        lines.append(line)
+    assert " 20 steps at " in lines[0] and " 40 steps at " in lines[1]
+    assert "on 1 thread(s)" in lines[0]
+    del scene_dict["duration"]
+    assert run_time(sphfluid.load_scene(scene_dict)) == (None, None)
+
+
+@pytest.mark.parametrize("end, warned", [(0.96, True), (1.0, False), (0.8, False)])
+def test_a_narrow_gap_between_walls_is_a_warning(scene_dict, end, warned):
+    """The tank's right wall as its own segment, the floor stopping short of it:
+    a gap of 0.04 m (0.8 spacings) warns; joined, or 0.2 m (a deliberate
+    opening, 4 spacings), does not."""
+    from sphfluid.check import wall_gaps
+
+    scene_dict["walls"] = [{"polyline": [[0.0, 1.0], [0.0, 0.0], [end, 0.0]]},
+                           [[1.0, 0.0], [1.0, 1.0]]]
+    found = wall_gaps(sphfluid.load_scene(scene_dict), scene_dict)
+    if warned:
+        assert [(f.level, f.path) for f in found] == [("warning", "walls[0]")]
+        assert "ends at (0.96, 0), 0.04 m (0.8 spacings) from walls[1]" in found[0].message
+    else:
+        assert found == []
+
+
+def test_a_polyline_not_closed_by_a_hair_is_a_gap_to_itself(scene_dict):
+    from sphfluid.check import wall_gaps
+
+    box = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 0.01]]
+    scene_dict["walls"] = [{"polyline": box}]
+    found = wall_gaps(sphfluid.load_scene(scene_dict), scene_dict)
+    assert len(found) == 1 and "from itself" in found[0].message
+    scene_dict["walls"] = [{"polyline": box[:-1], "closed": True}]
+    assert wall_gaps(sphfluid.load_scene(scene_dict), scene_dict) == []
 
 
 def test_a_load_error_is_reported_by_path_with_exit_2(tmp_path, scene_dict, capsys):

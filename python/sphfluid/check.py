@@ -154,6 +154,8 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
                                         f"spacing ({dx / 2:g} m) of the wall: they start "
                                         "overlapping it"))
 
+    findings += wall_gaps(scene, raw)
+
     limit = step_limit(scene)
     if scene.time_step is not None and scene.time_step > limit.dt:
         # above the sound speed's CFL 1 (or the viscous bound) the explicit step
@@ -189,6 +191,95 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
     else:
         info.append("steps        the scene has no duration")
     return Report(findings, info)
+
+
+# A wall's free end closer than this (in spacings) to another wall is a gap; a wider
+# one is taken as a deliberate opening (the terrain scene's catch slope stops 2.5
+# spacings short of the wall, to drain into the basin).
+GAP_SPACINGS = 2.0
+
+
+def wall_gaps(scene: Scene, raw: Mapping[str, Any] | None = None) -> list[Finding]:
+    """Warnings for narrow gaps between walls: a wall's free end (one no other
+    segment starts or ends at) closer than GAP_SPACINGS spacings to another
+    segment, without touching it. Particles are points reflected by the walls:
+    any such gap lets fluid through, and one that narrow is more likely a
+    container drawn with its ends apart than a deliberate opening."""
+    walls = np.asarray(scene.walls, dtype=np.float64).reshape(-1, 2, 2)
+    if len(walls) < 2:
+        return []
+    dx = scene.spacing
+    ends = walls.reshape(-1, 2)  # segment k's ends are rows 2k, 2k + 1
+    scale = max(1.0, float(np.abs(ends).max()))
+    touch = 1e-9 * scale
+    paths = wall_paths(scene, raw)
+    out: list[Finding] = []
+    reported: set[tuple[str, ...]] = set()
+    for i, end in enumerate(ends):
+        seg = i // 2
+        shared = np.hypot(*(ends - end).T) <= touch
+        shared[2 * seg:2 * seg + 2] = False
+        if shared.any():
+            continue  # joined to another segment
+        others = [k for k in range(len(walls)) if k != seg]
+        dist = np.array([_distance_to_segment(end[None], *walls[k])[0] for k in others])
+        k = int(np.argmin(dist))
+        gap = float(dist[k])
+        if touch < gap < GAP_SPACINGS * dx:
+            key = tuple(sorted((paths[seg], paths[others[k]])))  # a gap between two, once
+            if key in reported:
+                continue
+            reported.add(key)
+            where = f"{paths[others[k]]}" if paths[others[k]] != paths[seg] else "itself"
+            out.append(Finding(
+                "warning", paths[seg], f"ends at ({end[0]:g}, {end[1]:g}), {gap:.3g} m "
+                f"({gap / dx:.2g} spacings) from {where}: fluid leaks through a gap that "
+                "narrow; join the ends (or close the polyline) if it should hold fluid"))
+    return out
+
+
+def run_time(scene: Scene, threads: int | None = None, budget: float = 0.25,
+             max_steps: int = 200) -> tuple[str | None, Finding | None]:
+    """A line estimating the run's wall time, from the scene's first steps timed
+    (after 2 untimed ones: at least 5, up to max_steps, budget seconds or the
+    end) times its steps to the end at the step size they took; and an error
+    if those steps blew up. (None, None) without a duration."""
+    import time
+
+    from .simulation import InstabilityError, Simulation
+
+    if scene.duration is None:
+        return None, None
+    sim = Simulation(scene, threads=threads)
+    n, begin = 0, 0.0
+    try:
+        while sim.time < scene.duration * (1 - 1e-12) and (
+                n < 7 or (n < max_steps + 2 and time.perf_counter() - begin < budget)):
+            if n == 2:  # the first two touch the memory and start the thread pool
+                begin = time.perf_counter()
+            sim.step(1)
+            n += 1
+    except InstabilityError as e:
+        return None, Finding("error", "solver", f"the run blows up in its first {n + 1} "
+                             f"steps: {e}")
+    if n <= 2:
+        return None, None  # (a run of one or two steps)
+    per_step = (time.perf_counter() - begin) / (n - 2)
+    steps = math.ceil(max(scene.duration - sim.time, 0.0) / sim.dt - 1e-9) + sim.step_count
+    took = "" if scene.time_step is not None else (
+        f", at the {sim.dt:.3g} s step the adaptive step took (it shrinks as the flow "
+        "speeds up)")
+    return (f"run time     about {_duration(steps * per_step)} on {sim.threads_in_use} "
+            f"thread(s): {steps:,} steps at {per_step * 1e3:.3g} ms each, timed over steps "
+            f"3 to {n}{took}"), None
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.3g} min"
+    return f"{seconds / 3600:.3g} h"
 
 
 def _shared_rows(a: np.ndarray, b: np.ndarray) -> int:

@@ -130,13 +130,17 @@ def _add_check(sub) -> None:
     c = sub.add_parser("check", help="check a scene before running it",
                        description="Load a scene (its errors by JSON path), validate it "
                                    "against the JSON Schema when jsonschema is installed, then "
-                                   "check its initial particles and time step: particles "
-                                   "outside the domain, overlapping a wall or another region, "
-                                   "a fixed time step above the stability limit. Prints each "
-                                   "finding as error: or warning: with its JSON path, then the "
-                                   "particle count, memory and steps. Exit code 0 without "
-                                   "errors, 2 with.")
+                                   "check its initial particles, walls and time step: "
+                                   "particles outside the domain, overlapping a wall or "
+                                   "another region, gaps between walls narrower than two "
+                                   "spacings, a fixed time step above the stability limit. "
+                                   "Prints each finding as error: or warning: with its JSON "
+                                   "path, then the particle count, memory and steps, and the "
+                                   "run time from timing the first steps. Exit code 0 "
+                                   "without errors, 2 with.")
     c.add_argument("scene", help="scene JSON file")
+    c.add_argument("--threads", type=_count,
+                   help="OpenMP threads for the timed steps (default: all cores)")
 
 
 def _add_schema(sub) -> None:
@@ -649,9 +653,15 @@ def _check(args) -> int:
         findings = []
     report = check_scene(scene, raw)
     findings += report.findings
+    estimate = None
+    if not any(f.level == "error" for f in findings):
+        from .check import run_time
+
+        estimate, blow_up = run_time(scene, threads=args.threads)
+        findings += [blow_up] if blow_up else []
     for f in findings:
         print(f)
-    for line in report.info:
+    for line in report.info + ([estimate] if estimate else []):
         print(line)
     errors = sum(f.level == "error" for f in findings)
     warnings = len(findings) - errors
