@@ -59,14 +59,17 @@ class Context {
   Real last_dt() const { return last_dt_; }
   TimeStepLimit last_limit() const { return last_limit_; }
   std::int64_t removed() const { return removed_; }
+  // Wall crossings the collisions stopped (bounces and stops), over the run.
+  std::int64_t wall_crossings() const { return wall_crossings_; }
   // The clock and the counts as a checkpoint holds them.
   void restore_clock(Real time, std::int64_t steps, Real last_dt, TimeStepLimit limit,
-                     std::int64_t removed) {
+                     std::int64_t removed, std::int64_t wall_crossings) {
     time_ = time;
     step_count_ = steps;
     last_dt_ = last_dt;
     last_limit_ = limit;
     removed_ = removed;
+    wall_crossings_ = wall_crossings;
   }
   // A step of dt is done.
   void advance(Real dt) {
@@ -143,6 +146,7 @@ class Context {
   struct Integration {
     bool bad = false;
     Real v2_sum = 0;
+    std::int64_t crossings = 0;  // wall crossings the collisions stopped
     bool box = false, ahead = false;
     Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();
   };
@@ -158,6 +162,7 @@ class Context {
   TimeStepLimit last_limit_ = TimeStepLimit::kFixed;
   std::int64_t step_count_ = 0;
   std::int64_t removed_ = 0;
+  std::int64_t wall_crossings_ = 0;
   // The last integration found every particle within the domain (its
   // vector loop checks; remove_outside_domain's pass is then skipped).
   bool all_inside_ = false;

@@ -56,6 +56,7 @@ void Context::integrate(Real dt, Real kick, const Vec2* shift) {
   if (r.bad || (params_.guard &&
                 !(kinetic + energy_removed <= params_.guard_energy_factor * energy_budget)))
     trip(dt, x_new, v_new, ps.rho.data(), kinetic);
+  wall_crossings_ += r.crossings;  // (a step that trips is not counted)
   ps.x.commit_write();
   ps.v.commit_write();
   if (r.ahead) {
@@ -83,8 +84,9 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
   ghosts.stale();  // the wall clearances serve one integration only
   bool bad = false;
   Real sum = 0;
+  std::int64_t crossings = 0;
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(|| : bad) \
-    reduction(+ : sum)
+    reduction(+ : sum, crossings)
   for (Index i = 0; i < n; ++i) {
     const Vec2 x_old = x[i];
     Vec2 vi = v[i] + kick * a[i];
@@ -92,7 +94,7 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
     if (shift) xi += shift[i];
     if constexpr (Walls)
       if (xi.allFinite() && vi.allFinite() && walls.may_hit(x_old, xi))
-        walls.collide(x_old, xi, vi, e);
+        crossings += walls.collide(x_old, xi, vi, e);
     if constexpr (Periodic) xi = box.wrap(xi);
     const Real v2 = vi.squaredNorm();
     // Written so that NaN fails every comparison and so trips.
@@ -104,6 +106,7 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
   Integration r;
   r.bad = bad;
   r.v2_sum = sum;
+  r.crossings = crossings;
   return r;
 }
 
@@ -144,7 +147,8 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
   const D8 v2_cap = D8::splat(v2_max), rho_cap = D8::splat(rho_max);
   bool bad = false;
   Real sum = 0, lx = inf, ly = inf, hx = -inf, hy = -inf;
-#pragma omp parallel num_threads(team()) reduction(|| : bad) reduction(+ : sum) \
+  std::int64_t crossings = 0;
+#pragma omp parallel num_threads(team()) reduction(|| : bad) reduction(+ : sum, crossings) \
     reduction(min : lx, ly) reduction(max : hx, hy)
   {
     D8 vlx = D8::splat(inf), vly = vlx, vhx = D8::splat(-inf), vhy = vhx;
@@ -179,7 +183,7 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
           for (unsigned k = 0; k < 8; ++k) {
             if (!(may >> k & 1u)) continue;
             const Index i = i0 + static_cast<Index>(k);
-            walls.collide(x[i], x_new[i], v_new[i], e);
+            crossings += walls.collide(x[i], x_new[i], v_new[i], e);
           }
           simd::load_halves(x_new[0].data() + o, s, xn_lo, xn_hi);
           simd::load_halves(v_new[0].data() + o, s, v_lo, v_hi);
@@ -212,6 +216,7 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
   }
   r.bad = bad;
   r.v2_sum = sum;
+  r.crossings = crossings;
   r.box = true;
   r.ahead = cells_ahead != nullptr;
   r.lo = Vec2(lx, ly);

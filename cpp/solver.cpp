@@ -144,6 +144,7 @@ Snapshot Solver::snapshot() const {
   s.last_dt = ctx_.last_dt();
   s.step_count = ctx_.step_count();
   s.removed = ctx_.removed();
+  s.wall_crossings = ctx_.wall_crossings();
   s.retried_steps = retried_steps_;
   s.last_limit = ctx_.last_limit();
   s.energy_budget = ctx_.energy_budget;
@@ -186,7 +187,8 @@ void Solver::restore(const Snapshot& s) {
   }
   ctx_.particles_changed();
   for (FieldBase* f : fields) f->assign(find(f)->bytes.data(), n);
-  ctx_.restore_clock(s.time, s.step_count, s.last_dt, s.last_limit, s.removed);
+  ctx_.restore_clock(s.time, s.step_count, s.last_dt, s.last_limit, s.removed,
+                     s.wall_crossings);
   ctx_.energy_budget = s.energy_budget;
   ctx_.energy_removed = s.energy_removed;
   retried_steps_ = s.retried_steps;

@@ -33,7 +33,7 @@ struct Snapshot {
   };
   std::vector<FieldData> fields;
   Real time = 0, last_dt = 0;
-  std::int64_t step_count = 0, removed = 0, retried_steps = 0;
+  std::int64_t step_count = 0, removed = 0, retried_steps = 0, wall_crossings = 0;
   TimeStepLimit last_limit = TimeStepLimit::kFixed;
   Real energy_budget = 0, energy_removed = 0;
   std::vector<Real> method;
@@ -77,6 +77,7 @@ class Solver {
   Real time() const { return ctx_.time(); }
   std::int64_t step_count() const { return ctx_.step_count(); }
   std::int64_t removed() const { return ctx_.removed(); }
+  std::int64_t wall_crossings() const { return ctx_.wall_crossings(); }
   Real last_dt() const { return ctx_.last_dt(); }
   TimeStepLimit last_limit() const { return ctx_.last_limit(); }
   int threads() const { return ctx_.threads(); }

@@ -46,7 +46,7 @@ RUNS = {
 
 def same_state(a, b):
     return all(np.array_equal(getattr(a, f), getattr(b, f)) for f in FIELDS) and \
-        (a.time, a.step_count) == (b.time, b.step_count)
+        (a.time, a.step_count, a.wall_crossings) == (b.time, b.step_count, b.wall_crossings)
 
 
 @pytest.mark.parametrize("threads", [1, 2])

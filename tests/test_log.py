@@ -15,7 +15,7 @@ from sphfluid.metadata import run_metadata, scene_hash
 
 FIELDS = {"time", "step", "dt", "dt_limit", "max_density_error", "max_compression", "max_speed",
           "kinetic_energy", "surface_energy", "energy_budget", "energy_removed", "particles",
-          "particles_removed", "retried_steps", "guard_density", "guard_speed", "guard_energy",
+          "particles_removed", "wall_crossings", "retried_steps", "guard_density", "guard_speed", "guard_energy",
           "wall_time"}
 
 
@@ -89,6 +89,8 @@ def test_the_log_holds_metadata_then_health_lines(tmp_path, simulations):
     assert end["kinetic_energy"] == st["kinetic_energy"]
     assert end["energy_removed"] == st["energy_removed"] > 0
     assert end["particles_removed"] == sim.removed_particles > 0
+    assert end["wall_crossings"] == sim.wall_crossings  # (counted: tests/test_walls.py)
+    assert all(a["wall_crossings"] <= b["wall_crossings"] for a, b in zip(lines, lines[1:]))
     assert end["particles"] == sim.n_particles
     p = sim._solver.params
     assert end["guard_density"] == pytest.approx(sim.densities.max() / (3 * p.rho0))

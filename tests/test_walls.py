@@ -136,3 +136,26 @@ def test_a_path_stays_on_its_side_of_a_wall(x0, y0, dx, dy, e):
 def test_zero_length_wall_is_rejected():
     with pytest.raises(ValueError, match=r"walls\[0\]: wall segment has zero length"):
         W.ghosts(np.array([[[0.0, 0.0], [0.0, 0.0]]]), np.array([0.0, 0.0]), H)
+
+
+def test_the_wall_crossings_stopped_are_counted():
+    """Two lone particles thrown at the floor: one bounce each, counted; a third
+    between them, moving along the floor, crosses nothing. A step the guard
+    refuses adds nothing."""
+    import copy
+
+    from conftest import BASE_SCENE
+    from sphfluid import InstabilityError, Simulation
+
+    sim = Simulation(copy.deepcopy(BASE_SCENE), threads=1)
+    pos = np.array([[0.2, 0.01], [0.8, 0.01], [0.5, 0.3]])
+    vel = np.array([[0.0, -20.0], [0.0, -20.0], [1.0, 0.0]])
+    sim.set_state(pos, vel)
+    assert sim.wall_crossings == 0
+    sim.step()
+    assert sim.wall_crossings == 2 and (sim.positions[:, 1] > 0).all()
+    assert sim.stats()["wall_crossings"] == 2
+    sim.set_state(pos, np.array([[0.0, -1e9], [0.0, -20.0], [1.0, 0.0]]))  # trips the guard
+    with pytest.raises(InstabilityError):
+        sim.step()
+    assert sim.wall_crossings == 2

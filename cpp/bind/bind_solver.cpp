@@ -129,6 +129,7 @@ py::dict snapshot_to_dict(const Snapshot& s) {
   d["last_dt"] = s.last_dt;
   d["last_dt_limit"] = static_cast<int>(s.last_limit);
   d["removed_particles"] = s.removed;
+  d["wall_crossings"] = s.wall_crossings;
   d["retried_steps"] = s.retried_steps;
   d["energy_budget"] = s.energy_budget;
   d["energy_removed"] = s.energy_removed;
@@ -163,6 +164,7 @@ Snapshot snapshot_from_dict(const py::dict& d) {
     throw std::invalid_argument("checkpoint: last_dt_limit out of range");
   s.last_limit = static_cast<TimeStepLimit>(limit);
   s.removed = d["removed_particles"].cast<std::int64_t>();
+  s.wall_crossings = d.contains("wall_crossings") ? d["wall_crossings"].cast<std::int64_t>() : 0;
   s.retried_steps = d["retried_steps"].cast<std::int64_t>();
   s.energy_budget = d["energy_budget"].cast<Real>();
   s.energy_removed = d["energy_removed"].cast<Real>();
@@ -219,6 +221,9 @@ void def_diagnostics(SolverClass& c) {
       .def_property_readonly("step_count", &Solver::step_count)
       .def_property_readonly("removed_particles", &Solver::removed,
                              "particles removed for leaving the domain")
+      .def_property_readonly("wall_crossings", &Solver::wall_crossings,
+                             "wall crossings the wall collisions stopped (each bounce, and "
+                             "each stop in front of a wall), over the run")
       .def_property_readonly("features", &Solver::features,
                              "bit set of active optional terms: 1 viscosity, 2 surface "
                              "tension, 4 walls, 8 periodic axes")

@@ -158,7 +158,7 @@ Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const {
   return best;
 }
 
-void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const {
+int WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const {
   Vec2 p0 = x_old, p1 = x_new;
   Index bounced[kMaxBounces];
   int n_bounced = 0;
@@ -182,8 +182,8 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
       // it, keeping only its tangential velocity: no path ever crosses a wall.
       const Real vn = v.dot(n);
       if (vn < 0) v -= vn * n;
-      p1 = safe;
-      break;
+      x_new = safe;
+      return n_bounced + 1;
     }
     // Reflect the velocity and the rest of the path like a rubber ball.
     const Real vn = v.dot(n);
@@ -196,6 +196,7 @@ void WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution)
     bounced[n_bounced++] = si;
   }
   x_new = p1;
+  return n_bounced;
 }
 
 void WallSet::set_velocities(const std::vector<Vec2>& velocities) {

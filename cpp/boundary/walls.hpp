@@ -92,8 +92,9 @@ class WallSet {
   // and reflects it off every wall on its path, each wall at most once per step
   // (seed 4.2); the normal velocity is scaled by -restitution at each bounce.
   // If the path meets a wall a second time, the particle stops just in front
-  // of it instead, so no path ever crosses a wall.
-  void collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
+  // of it instead, so no path ever crosses a wall. Returns the crossings it
+  // stopped: the bounces, and the stop if there was one.
+  int collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
 
   // False when the path p0 -> p1 cannot meet a wall: it lies in one lookup
   // cell that no wall comes near (most particles, most steps). Inline, so

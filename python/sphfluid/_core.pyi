@@ -197,6 +197,10 @@ class Solver(metaclass=_Pybind11Type):
     def removed_particles(self) -> int:
         """Particles removed for leaving the domain."""
     @property
+    def wall_crossings(self) -> int:
+        """Wall crossings the wall collisions stopped (each bounce, and each stop in front of
+        a wall), over the run."""
+    @property
     def retried_steps(self) -> int:
         """Steps retried with a halved time step."""
     @property

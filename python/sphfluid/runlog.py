@@ -62,6 +62,7 @@ def health(sim, stats: dict | None = None) -> dict[str, Any]:
         "energy_removed": st["energy_removed"],
         "particles": st["n_particles"],
         "particles_removed": st["removed_particles"],
+        "wall_crossings": st["wall_crossings"],
         "retried_steps": st["retried_steps"],
         **guard_margins(sim, st),
     }

@@ -411,6 +411,15 @@ class Simulation:
         """Particles removed for leaving the domain."""
         return self._solver.removed_particles
 
+    @property
+    def wall_crossings(self) -> int:
+        """Wall crossings the wall collisions stopped over the run: each time a
+        particle's path would have crossed a wall in a step and was reflected
+        (or stopped in front of it). The seed's walls work this way; with
+        wcsph's wall forces it is a health counter, 0 while they hold the
+        fluid off."""
+        return self._solver.wall_crossings
+
     def density_extremes(self) -> tuple[float, float]:
         """(max |rho/rho0 - 1|, max(rho/rho0 - 1, 0)) of the current state: the
         density error (it counts the free surface's particles, whose summed
@@ -440,6 +449,7 @@ class Simulation:
             "pair_precision": "float" if self._solver.float_pairs else "double",
             "n_particles": self.n_particles,
             "removed_particles": self.removed_particles,
+            "wall_crossings": self.wall_crossings,
             "kinetic_energy": 0.5 * self.particle_mass * float(speed2.sum()),  # J per m depth
             "max_speed": float(math.sqrt(speed2.max())) if len(v) else 0.0,
             "max_density_error": max_err,  # (density_extremes)
