@@ -15,6 +15,7 @@ pygame = pytest.importorskip("pygame")
 
 import sphfluid
 from sphfluid.cli import main
+from sphfluid.metadata import scene_hash
 from sphfluid.viewer import BACKGROUND, MODES, Renderer, save_scene
 
 
@@ -98,6 +99,11 @@ def test_record_writes_png_frames(tmp_path, capsys):
     assert len(frames) == 3  # t = 0, 0.05, 0.1
     assert pygame.image.load(str(frames[-1])).get_size() == (200, 150)
     assert "wrote 3 frames" in capsys.readouterr().out
+    from PIL import Image
+
+    with Image.open(frames[0]) as png:  # the run metadata, in a text chunk
+        meta = json.loads(png.text["sphfluid_metadata"])
+    assert meta["scene_hash"] == scene_hash(sphfluid.load_scene(BASE_SCENE))
 
 
 def test_record_refuses_an_unknown_file_type(tmp_path, capsys):
@@ -214,6 +220,8 @@ def test_record_writes_a_gif(tmp_path, capsys):
                  "--size", "200x150", "--mode", "surface"]) == 0
     with image.open(out) as gif:
         assert gif.size == (200, 150) and gif.n_frames == 3
+        meta = json.loads(gif.info["comment"])
+    assert meta["method"] == "seed" and meta["sphfluid_version"] == sphfluid.__version__
 
 
 def test_liquid_mode_draws_a_smooth_anti_aliased_surface(display):
@@ -255,6 +263,16 @@ def test_record_writes_an_mp4_at_the_frame_rate(tmp_path):
     assert len(frames) == 4  # t = 0 .. 0.15
     assert not np.array_equal(frames[0], frames[-1])  # the fluid moved
     assert not list(tmp_path.glob(".*tmp*"))
+    import subprocess
+
+    import re
+
+    probe = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-loglevel", "error", "-i",
+                            str(out), "-f", "ffmetadata", "-"],
+                           capture_output=True, text=True, timeout=60)
+    comment = next(line for line in probe.stdout.splitlines() if line.startswith("comment="))
+    meta = json.loads(re.sub(r"\\(.)", r"\1", comment[len("comment="):]))  # unescaped
+    assert meta["scene_hash"] == scene_hash(sphfluid.load_scene(BASE_SCENE))
 
 
 def test_an_mp4_without_imageio_ffmpeg_names_the_extra(tmp_path, monkeypatch, capsys):

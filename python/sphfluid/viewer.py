@@ -585,10 +585,19 @@ class _Window:
 VIDEO_INSTALL = 'pip install "sphfluid[video]"  (or: pip install imageio-ffmpeg)'
 
 
-class PngFrames:
-    """frame_NNNNN.png in a folder, each written atomically."""
+METADATA_KEY = "sphfluid_metadata"  # the PNG text chunk holding the run metadata
 
-    def __init__(self, folder: Path, size: tuple[int, int], fps: float):
+
+class PngFrames:
+    """frame_NNNNN.png in a folder, each written atomically (Pillow), with the
+    run metadata as a text chunk."""
+
+    def __init__(self, folder: Path, size: tuple[int, int], fps: float, metadata: str):
+        from PIL import Image, PngImagePlugin
+
+        self.image, self.size = Image, size
+        self.info = PngImagePlugin.PngInfo()
+        self.info.add_text(METADATA_KEY, metadata)
         self.folder = folder
         folder.mkdir(parents=True, exist_ok=True)
         self.count = 0
@@ -596,8 +605,9 @@ class PngFrames:
     def add(self, pygame, surface) -> None:
         from .output import replacing
 
+        rgb = self.image.frombytes("RGB", self.size, pygame.image.tostring(surface, "RGB"))
         with replacing(self.folder / f"frame_{self.count:05d}.png") as tmp:
-            pygame.image.save(surface, str(tmp))
+            rgb.save(tmp, format="PNG", pnginfo=self.info)
         self.count += 1
 
     def close(self) -> None:
@@ -625,13 +635,15 @@ class _MovieFile:
 
 
 class GifFrames(_MovieFile):
-    """An animated GIF (Pillow): each frame reduced to a palette as it comes."""
+    """An animated GIF (Pillow): each frame reduced to a palette as it comes;
+    the run metadata as its comment."""
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: str):
         from PIL import Image
 
         super().__init__(path)
         self.image, self.size, self.fps = Image, size, fps
+        self.comment = metadata.encode("utf-8")
         self.frames: list = []
 
     def add(self, pygame, surface) -> None:
@@ -641,7 +653,7 @@ class GifFrames(_MovieFile):
     def close(self) -> None:
         self.frames[0].save(self.tmp, format="GIF", save_all=True,
                             append_images=self.frames[1:], duration=round(1000 / self.fps),
-                            loop=0)
+                            loop=0, comment=self.comment)
         self._finish(None)
 
     def abort(self) -> None:
@@ -649,16 +661,18 @@ class GifFrames(_MovieFile):
 
 
 class Mp4Frames(_MovieFile):
-    """An H.264 MP4 by the ffmpeg that imageio-ffmpeg ships, frames streamed to it."""
+    """An H.264 MP4 by the ffmpeg that imageio-ffmpeg ships, frames streamed to it;
+    the run metadata as its comment."""
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: str):
         import imageio_ffmpeg
 
         super().__init__(path)
         # yuv420p (what players expect) needs even sides: pad an odd one by a pixel
         self.writer = imageio_ffmpeg.write_frames(
             str(self.tmp), size, fps=fps, codec="libx264", quality=7, macro_block_size=1,
-            output_params=["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-f", "mp4"])
+            output_params=["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-metadata",
+                           f"comment={metadata}", "-f", "mp4"])
         self.writer.send(None)  # start ffmpeg
 
     def add(self, pygame, surface) -> None:
@@ -675,8 +689,9 @@ class Mp4Frames(_MovieFile):
             self._finish(RuntimeError("aborted"))
 
 
-def frame_sink(out: Path, size: tuple[int, int], fps: float):
-    """The writer record() renders into: PNGs in a folder, a .gif or an .mp4."""
+def frame_sink(out: Path, size: tuple[int, int], fps: float, metadata: str = "{}"):
+    """The writer record() renders into: PNGs in a folder, a .gif or an .mp4, each
+    carrying metadata (the run metadata's JSON)."""
     suffix = out.suffix.lower()
     if suffix == ".gif":
         try:
@@ -684,18 +699,18 @@ def frame_sink(out: Path, size: tuple[int, int], fps: float):
         except ImportError:
             raise ValueError("writing a GIF needs Pillow (pip install pillow); "
                              "or give a folder to write PNG frames") from None
-        return GifFrames(out, size, fps)
+        return GifFrames(out, size, fps, metadata)
     if suffix == ".mp4":
         try:
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
             raise ValueError(f"writing an MP4 needs imageio-ffmpeg: {VIDEO_INSTALL}; or write "
                              "a .gif, or a folder of PNG frames") from None
-        return Mp4Frames(out, size, fps)
+        return Mp4Frames(out, size, fps, metadata)
     if suffix:
         raise ValueError(f"--out: expected a folder for PNG frames, a .gif or an .mp4 file, "
                          f"got {out}")
-    return PngFrames(out, size, fps)
+    return PngFrames(out, size, fps, metadata)
 
 
 def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
@@ -719,10 +734,13 @@ def record(scene_path: str | Path, out: Path, *, duration: float | None = None,
     if duration is None:
         raise ValueError("no duration given and the scene has no 'duration'")
     sim = Simulation(scene, threads=threads)
+    from .metadata import run_metadata
+
+    metadata = json.dumps(run_metadata(sim), sort_keys=True)
     pygame.display.init()
     pygame.font.init()
     try:
-        sink = frame_sink(out, size, fps)
+        sink = frame_sink(out, size, fps, metadata)
         surface = pygame.Surface(size)
         renderer = Renderer(sim, size, mode)
         n_frames = int(duration * fps + 1e-9) + 1
