@@ -346,3 +346,13 @@ def test_a_killed_run_leaves_a_valid_collection_of_whole_frames(tmp_path):
         d = output.read_vtu(out / name)
         assert d["field_data"]["TimeValue"][0] == t
         assert len(d["point_data"]["ids"]) == len(d["points"]) == 1435
+
+
+def test_source_line_names_the_version_commit_and_build(fresh_git_state):
+    line = md.source_line()
+    assert line.startswith(f"sphfluid {sphfluid.__version__} (")
+    commit, dirty = md.git_state()
+    if commit is not None:
+        assert f"commit {commit[:7]}" in line
+        assert ("with local changes" in line) == dirty
+    assert _core.build_info["compiler"] in line and _core.build_info["real"] in line

@@ -36,6 +36,7 @@ from .bench import (
     variant_scene,
     write_section,
 )
+from .metadata import source_line
 
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
@@ -372,7 +373,8 @@ def suite_report(args, rows: list[dict], tts: list[dict], repeat: int, start: fl
     drew = scaling_plot(rows, png)
     rel = os.path.relpath(png, args.write.parent if args.write else Path("."))
     return "\n".join([
-        f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, -march=native "
+        f"Machine: {machine()}. {source_line()}. Build: {info['compiler']}, "
+        f"{info['build_type']}, -march=native "
         f"{'on' if info['march_native'] else 'off'}, OpenMP {info['openmp']}, {info['real']}. "
         f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
         + (f" --sizes {args.sizes}" if args.sizes else "")
@@ -415,8 +417,8 @@ def peers_report(peers, tts: list[dict], log=_log) -> str:
     """The peers' section of BENCHMARKS.md: every configuration of the installed
     peers on the 10k dam break, beside our time-to-solution runs."""
     return "\n".join([
-        (f"Machine: {machine()}. Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid "
-         "bench --suite --peers`, in the environment of docs/peers.md. The dam break at "
+        (f"Machine: {machine()}. {source_line()}. Date: {time.strftime('%Y-%m-%d')}. "
+         "Command: `sphfluid bench --suite --peers`, in the environment of docs/peers.md. The dam break at "
          "~10,000 particles, 1.0 s, 2 threads, each code in its own process; our rows "
          "are the time-to-solution runs of the same command."),
         "",

@@ -60,6 +60,19 @@ def git_state() -> tuple[str | None, bool | None]:
     return commit, (None if status is None else bool(status.strip()))
 
 
+def source_line() -> str:
+    """The package's version, commit and build in one phrase, for the reports'
+    headers: "sphfluid 0.1.0 (commit 3a75a43, with local changes; GNU 12.2.0,
+    Release, -march=native, double)"."""
+    commit, dirty = git_state()
+    info = _core.build_info
+    where = "" if commit is None else (
+        f"commit {commit[:7]}{', with local changes' if dirty else ''}; ")
+    native = "-march=native" if info["march_native"] else "portable"
+    return (f"sphfluid {_core.__version__} ({where}{info['compiler']}, {info['build_type']}, "
+            f"{native}, {info['real']})")
+
+
 def run_metadata(sim) -> dict[str, Any]:
     """What is running: a JSON-ready dict for a Simulation.
 

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .bench import machine
+from .metadata import source_line
 from .scene import METHODS, load_scene
 from .simulation import InstabilityError, Simulation
 
@@ -435,7 +436,7 @@ def report_text(args, p: Plan, precision: str, elapsed: float, tally: Tally,
     command = ("sphfluid stress " + ("--full" if args.full else "--quick") + f" --out {args.out}"
                + ("" if precision == "double" else f" --pair-precision {precision}"))
     return "\n".join([
-        (f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
+        (f"Machine: {machine()}. {source_line()}. Date: {datetime.date.today().isoformat()}. "
          f"Command: `{command}` ({elapsed:.0f} s)."),
         "",
         ("| runs | stable | caught by the guard | silent failures (goal 0) | particles lost "

@@ -365,7 +365,10 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
            peer_threads: int | None = None) -> str:
     """The Markdown report; `peer_cases`, when peers were asked for, the cases PySPH
     has (the others say it has none)."""
-    header = (f"Machine: {machine()}. Date: {datetime.date.today().isoformat()}. "
+    from ..metadata import source_line
+
+    header = (f"Machine: {machine()}. {source_line()}. "
+              f"Date: {datetime.date.today().isoformat()}. "
               f"Command: `{command}` ({seconds:.0f} s in all). Wall times are the stepping "
               "alone, on the default thread count; particle-steps/s = particles x steps / "
               "wall s." + _peer_header(results, peer_threads))
