@@ -584,16 +584,23 @@ def buchner_pressure(series: str = "buchner_P1") -> tuple[FloatArray, FloatArray
     results of Marrone et al. (2011, CMAME 200:1526) at H/dx = 40, 80, 320. Both
     digitised from the published plots (the data file's header says by whom).
     """
-    if series not in BUCHNER_SERIES:
-        raise ValueError(f"unknown series {series!r}; expected one of {list(BUCHNER_SERIES)}")
-    text = (resources.files("sphfluid.validation") / "data" / _BUCHNER_FILE).read_text("utf-8")
+    return _series_xy(_BUCHNER_FILE, series, BUCHNER_SERIES, "t_star", "p_star")
+
+
+def _series_xy(filename: str, series: str, known, x: str, y: str
+               ) -> tuple[FloatArray, FloatArray]:
+    """Columns x and y of a packaged data file's rows of one series, in
+    increasing x (a stable sort: digitised points keep their order on ties)."""
+    if series not in known:
+        raise ValueError(f"unknown series {series!r}; expected one of {list(known)}")
+    text = (resources.files("sphfluid.validation") / "data" / filename).read_text("utf-8")
     rows = [row for row in csv.DictReader(line for line in io.StringIO(text)
                                           if not line.startswith("#"))
             if row["series"] == series]
-    t = np.array([float(r["t_star"]) for r in rows])
-    p = np.array([float(r["p_star"]) for r in rows])
-    order = np.argsort(t, kind="stable")
-    return t[order], p[order]
+    xs = np.array([float(r[x]) for r in rows])
+    ys = np.array([float(r[y]) for r in rows])
+    order = np.argsort(xs, kind="stable")
+    return xs[order], ys[order]
 
 
 def mean_pressure_error(t_star: ArrayLike, p_star: ArrayLike,
@@ -628,13 +635,4 @@ def ghia_cavity(series: str) -> tuple[FloatArray, FloatArray]:
     -------
     (coordinate, velocity) : tuple of arrays, in increasing coordinate
     """
-    if series not in _GHIA_SERIES:
-        raise ValueError(f"unknown series {series!r}; expected one of {list(_GHIA_SERIES)}")
-    text = (resources.files("sphfluid.validation") / "data" / _GHIA_FILE).read_text("utf-8")
-    rows = [row for row in csv.DictReader(line for line in io.StringIO(text)
-                                          if not line.startswith("#"))
-            if row["series"] == series]
-    coordinate = np.array([float(r["coordinate"]) for r in rows])
-    velocity = np.array([float(r["velocity"]) for r in rows])
-    order = np.argsort(coordinate)
-    return coordinate[order], velocity[order]
+    return _series_xy(_GHIA_FILE, series, _GHIA_SERIES, "coordinate", "velocity")
