@@ -98,11 +98,44 @@ def test_particles_leaving_the_domain_are_removed_and_counted(scene_dict):
     (lambda s: s.set_state(np.zeros((3, 3)), np.zeros((3, 3))), r"positions: expected an array of shape \(n, 2\)"),
     (lambda s: s.set_state(np.zeros((3, 2)), np.zeros((2, 2))), "positions and velocities differ in length"),
     (lambda s: s.set_state(np.full((1, 2), np.nan), np.zeros((1, 2))), "position 0 is not finite"),
+    (lambda s: s.advance_to(float("nan")), "t_end must be finite, got nan"),
+    (lambda s: s.advance_to(float("inf")), "t_end must be finite, got inf"),
+    (lambda s: s.advance_to(1.0, max_steps=-1), "max_steps must be >= 0"),
+    (lambda s: s.run(float("nan")), "duration must be finite"),
+    (lambda s: s.run(0.1, every=float("nan")), "every must be finite"),
+    (lambda s: s.run(0.1, every=0.0), "every must be > 0"),
+    (lambda s: s.set_state(np.zeros((2, 2)), np.zeros((2, 2)), ids=[3, 3]), "ids must be distinct"),
+    (lambda s: s.set_state(np.zeros((2, 2)), np.zeros((2, 2)), ids=[-1, 3]), "ids must be >= 0"),
+    (lambda s: s.set_state(np.zeros((1, 2)), np.zeros((1, 2)), ids=[1.5]), "ids must be integers"),
+    (lambda s: setattr(s, "threads", 10**6), "more than 4 times this machine's"),
 ])
 def test_bad_calls_raise_clear_errors(scene_dict, call, message):
     sim = sphfluid.Simulation(scene_dict)
     with pytest.raises(ValueError, match=message):
         call(sim)
+
+
+@pytest.mark.parametrize("call,message", [
+    (lambda s: s.step(1.5), "n must be an integer, got 1.5"),
+    (lambda s: s.step(True), "n must be an integer, got True"),
+    (lambda s: setattr(s, "threads", 1.5), "threads must be an integer, got 1.5"),
+])
+def test_counts_must_be_integers(scene_dict, call, message):
+    sim = sphfluid.Simulation(scene_dict)
+    with pytest.raises(TypeError, match=message):
+        call(sim)
+    with pytest.raises(TypeError, match="threads must be an integer"):
+        sphfluid.Simulation(scene_dict, threads=2.0)
+
+
+def test_a_huge_step_count_is_taken_in_calls_the_core_accepts(scene_dict, monkeypatch):
+    from sphfluid import simulation
+
+    monkeypatch.setattr(simulation, "_STEPS_PER_CALL", 7)
+    sim = sphfluid.Simulation(scene_dict, threads=1)
+    sim.step(16)  # 7 + 7 + 2
+    assert sim.step_count == 16
+    assert sphfluid.Simulation(scene_dict, threads=np.int64(1)).threads == 1
 
 
 def test_blow_up_raises_instability_error_naming_step_and_particle(scene_dict):

@@ -356,3 +356,32 @@ def test_source_line_names_the_version_commit_and_build(fresh_git_state):
         assert f"commit {commit[:7]}" in line
         assert ("with local changes" in line) == dirty
     assert _core.build_info["compiler"] in line and _core.build_info["real"] in line
+
+
+def test_sigterm_stops_a_run_with_a_message_and_whole_frames(tmp_path):
+    """SIGTERM (a scheduler's stop) ends `run` between steps: exit 143, a line
+    saying so, and every npz frame written so far whole."""
+    import signal
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "sphfluid", "run", str(TERRAIN),
+                             "--duration", "4", "--every", "0.0002", "--threads", "1",
+                             "--out", str(out), "--quiet"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if len(list(out.glob("frame_*.npz"))) >= 5:
+                break
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143, err
+    assert "terminated (SIGTERM)" in err and "Traceback" not in err
+    frames = sorted(out.glob("frame_*.npz"))
+    assert len(frames) >= 5 and not list(out.glob(".*tmp*"))
+    for f in frames:
+        with np.load(f) as d:
+            assert d["positions"].shape == (1435, 2)

@@ -255,8 +255,33 @@ def _add_validate(sub) -> None:
     _add_benchmarks_dir(v, "the PySPH driver (--peers)")
 
 
+class _Terminated(Exception):
+    """SIGTERM arrived (a job scheduler's stop, `kill`)."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The command line: an exit code (0 done, 2 bad input, 3 unstable, 130 on
+    Ctrl+C, 143 on SIGTERM; both of those stop between steps, with every file
+    written so far whole)."""
+    import signal
+    import threading
+
     args = _parser().parse_args(argv)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return _main(args, argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(args, argv: list[str] | None) -> int:
     from .scene import SceneError
     from .simulation import InstabilityError
 
@@ -301,6 +326,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print("terminated (SIGTERM)", file=sys.stderr)
+        return 143
     return 0
 
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import os
 from typing import Callable
 
 import numpy as np
@@ -91,6 +93,40 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     return p
 
 
+# The core takes a C int of steps per call: more are taken in calls of this many.
+_STEPS_PER_CALL = 2**30
+
+
+def count_argument(value, name: str) -> int:
+    """value as a count (an integer >= 0; not a bool, not 1.5), or a clear error."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value}")
+    return int(value)
+
+
+def threads_argument(value) -> int | None:
+    """A thread count as a Simulation takes it: None or 0 (OpenMP's default),
+    else 1 up to 4 times the machine's cores (more only slows the step)."""
+    if value is None:
+        return None
+    n = count_argument(value, "threads")
+    cap = 4 * (os.cpu_count() or 1)
+    if n > cap:
+        raise ValueError(f"threads = {n} is more than 4 times this machine's "
+                         f"{os.cpu_count()} cores: more threads than cores only slow the "
+                         "step (0 or None: all cores)")
+    return n
+
+
+def _finite(value, name: str) -> float:
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return x
+
+
 def _wall_array(scene: Scene) -> np.ndarray:
     if not scene.walls:
         return np.zeros((0, 2, 2))
@@ -111,10 +147,8 @@ class Simulation:
     def __init__(self, scene: Scene | dict | str, *, threads: int | None = None):
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
-        if threads is not None and threads < 0:
-            raise ValueError(f"threads must be >= 0, got {threads}")
         self.scene = scene
-        self._threads = threads
+        self._threads = threads_argument(threads)
         self.reset()
 
     def reset(self) -> None:
@@ -154,12 +188,14 @@ class Simulation:
         the state of the step before (unless the scene says
         "on_instability": "retry": then the step is retried with dt/2, dt/4, ...).
         """
-        if n < 0:
-            raise ValueError(f"n must be >= 0, got {n}")
-        if self.adaptive:
-            self._solver.step_adaptive(int(n))
-        else:
-            self._solver.step(self.scene.time_step, int(n))
+        n = count_argument(n, "n")
+        while n > 0:
+            k = min(n, _STEPS_PER_CALL)
+            if self.adaptive:
+                self._solver.step_adaptive(k)
+            else:
+                self._solver.step(self.scene.time_step, k)
+            n -= k
 
     def advance_to(self, t_end: float, max_steps: int | None = None) -> int:
         """Step until the simulated time reaches t_end, or max_steps were taken;
@@ -169,9 +205,8 @@ class Simulation:
         shorten the last step to land on it (so the end times a run stops at
         are part of its path; stopping after max_steps is not).
         """
-        limit = 2**62 if max_steps is None else int(max_steps)
-        if limit < 0:
-            raise ValueError(f"max_steps must be >= 0, got {max_steps}")
+        t_end = _finite(t_end, "t_end")
+        limit = 2**62 if max_steps is None else count_argument(max_steps, "max_steps")
         if self.adaptive:
             return self._solver.advance_adaptive(float(t_end), limit)
         n = min(limit, max(0, math.ceil((t_end - self.time) / self.scene.time_step - 1e-9)))
@@ -198,9 +233,9 @@ class Simulation:
             duration = self.scene.duration
         if duration is None:
             raise ValueError("no duration given and the scene has no 'duration'")
-        if duration < 0:
+        if _finite(duration, "duration") < 0:
             raise ValueError(f"duration must be >= 0, got {duration}")
-        if every is not None and every <= 0:
+        if every is not None and not _finite(every, "every") > 0:
             raise ValueError(f"every must be > 0, got {every}")
         start = self.time
         chunk = every if every else duration / 100
@@ -252,9 +287,18 @@ class Simulation:
         self._solver.compute_forces()
 
     def set_state(self, positions, velocities, ids=None) -> None:
-        """Replace all particles (N may change). ids default to 0..N-1."""
-        self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float),
-                               None if ids is None else np.asarray(ids, np.int64))
+        """Replace all particles (N may change). ids default to 0..N-1; given,
+        they must be distinct integers >= 0 (ValueError otherwise)."""
+        if ids is not None:
+            given = np.asarray(ids)
+            if given.size and not np.issubdtype(given.dtype, np.integer):
+                raise ValueError(f"ids must be integers, got an array of {given.dtype}")
+            ids = given.astype(np.int64).reshape(-1)
+            if ids.size and ids.min() < 0:
+                raise ValueError(f"ids must be >= 0, got {int(ids.min())}")
+            if np.unique(ids).size != ids.size:
+                raise ValueError("ids must be distinct: some repeat")
+        self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float), ids)
 
     # -- editing (the viewer's terrain tools use these)
     def add_particles(self, positions, velocities=None) -> None:
@@ -320,7 +364,8 @@ class Simulation:
 
     @threads.setter
     def threads(self, n: int) -> None:
-        self._solver.threads = int(n)
+        n = threads_argument(n)
+        self._solver.threads = 0 if n is None else n
 
     @property
     def threads_in_use(self) -> int:
