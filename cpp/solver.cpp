@@ -251,6 +251,7 @@ void Solver::step_adaptive(int n) {
 // A trip leaves the state of the step before, so the step can be retried as
 // 2, 4, 8, ... steps of dt/2, dt/4, dt/8, ... (on_instability: "retry").
 void Solver::guarded_step(Real dt, Real dt_cap) {
+  ctx_.ps.own_fields();  // a view taken before the step keeps what it showed
   try {
     method_->step(dt, dt_cap);
     return;

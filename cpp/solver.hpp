@@ -54,7 +54,10 @@ class Solver {
   std::int64_t advance_adaptive(Real t_end, std::int64_t max_steps);
   // Density, pressure and acceleration for the current state; nothing moves
   // (storage may be re-ordered, as in every step).
-  void compute_forces() { method_->evaluate(); }
+  void compute_forces() {
+    ctx_.ps.own_fields();
+    method_->evaluate();
+  }
   // Replace all particles; ids empty gives 0..n-1.
   void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
   // Append particles with fresh ids (one above the largest in use).

@@ -54,6 +54,7 @@ class FieldBase {
   virtual void compact(const std::vector<char>& keep) = 0;
   virtual std::size_t bytes() const = 0;
   virtual bool exclusive() const = 0;
+  virtual void own() = 0;
   // out[k] = in[order[k]], into a fresh buffer that then becomes current.
   virtual void permute(const std::vector<Index>& order, int threads) = 0;
   // The moves in place (exclusive() only); the jumps' entries wait in the
@@ -132,6 +133,9 @@ class Field final : public FieldBase {
   void commit_write() { buf_.swap(tmp_); }
   // No numpy view shares the buffer: it may be changed in place.
   bool exclusive() const override { return buf_.use_count() == 1; }
+  // Before writing in place: a buffer a numpy view shares is left to the view
+  // (it keeps the values it showed) and the field goes on in a copy.
+  void own() override { detach(); }
 
   // Keep the entries whose keep[i] is true, in order.
   void compact(const std::vector<char>& keep) override {
@@ -203,6 +207,14 @@ class ParticleSet {
   }
   void compact(const std::vector<char>& keep) {
     for (FieldBase* f : fields_) f->compact(keep);
+  }
+
+  // Before a step or an evaluation writes fields in place (the derived ones,
+  // and a method's state such as the continuity density): none of them
+  // shares its buffer with a numpy view any more (Field::own). Costs a copy
+  // only of a field a view holds.
+  void own_fields() {
+    for (FieldBase* f : fields_) f->own();
   }
 
   // Reorder the state fields by the permutation (order[k] = the particle
