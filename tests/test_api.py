@@ -250,3 +250,36 @@ def test_a_held_view_keeps_the_state_it_showed(scene_dict, method):
         for k in names:
             np.testing.assert_array_equal(views[k], copies[k], err_msg=k)
     assert not np.array_equal(sim.densities, copies["densities"])  # the run went on
+
+
+def test_a_second_thread_changing_a_simulation_is_refused(scene_dict):
+    """While one thread is inside run() (here held in its callback), another
+    thread's step(), set_state() or save_state() raises RuntimeError and changes
+    nothing; the run then ends as it would have alone."""
+    import threading
+
+    sim = sphfluid.Simulation(scene_dict, threads=1)
+    alone = sphfluid.Simulation(scene_dict, threads=1)
+    alone.run(0.01, every=0.005)
+    inside, release = threading.Event(), threading.Event()
+
+    def hold(s):
+        inside.set()
+        release.wait(30)
+
+    worker = threading.Thread(target=sim.run, args=(0.01,), kwargs={"every": 0.005,
+                                                                    "callback": hold})
+    worker.start()
+    try:
+        assert inside.wait(30)
+        steps = sim.step_count
+        for call in (sim.step, lambda: sim.set_state(sim.positions, sim.velocities)):
+            with pytest.raises(RuntimeError, match="being changed by another thread"):
+                call()
+        assert sim.step_count == steps
+    finally:
+        release.set()
+        worker.join(30)
+    assert (sim.time, sim.step_count) == (alone.time, alone.step_count)
+    np.testing.assert_array_equal(sim.positions, alone.positions)
+    sim.step()  # free again

@@ -5,9 +5,11 @@ Adds no physics: every equation lives in the C++ core (``sphfluid._core``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import numbers
 import os
+import threading
 from typing import Callable
 
 import numpy as np
@@ -127,6 +129,23 @@ def _finite(value, name: str) -> float:
     return x
 
 
+def _one_thread(method):
+    """A Simulation's method that changes it: refused with RuntimeError while
+    another thread is inside one (a Simulation is used from one thread at a
+    time; the same thread may nest them, as run() calls advance_to())."""
+    @functools.wraps(method)
+    def guarded(self, *args, **kwargs):
+        if not self._busy.acquire(blocking=False):
+            raise RuntimeError(f"{method.__name__}(): this Simulation is being changed by "
+                               "another thread; use a Simulation from one thread at a time "
+                               "(or one Simulation per thread)")
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            self._busy.release()
+    return guarded
+
+
 def _wall_array(scene: Scene) -> np.ndarray:
     if not scene.walls:
         return np.zeros((0, 2, 2))
@@ -149,8 +168,10 @@ class Simulation:
             scene = load_scene(scene)
         self.scene = scene
         self._threads = threads_argument(threads)
+        self._busy = threading.RLock()  # held by the thread inside a changing method
         self.reset()
 
+    @_one_thread
     def reset(self) -> None:
         """Start again from the scene's initial particles at t = 0."""
         pos, vel = self.scene.lattice_points()
@@ -178,6 +199,7 @@ class Simulation:
         """What limited the last step: fixed, cfl, force, viscous or dt_max."""
         return self._solver.last_dt_limit
 
+    @_one_thread
     def step(self, n: int = 1) -> None:
         """Advance n native steps (the GIL is released while they run).
 
@@ -197,6 +219,7 @@ class Simulation:
                 self._solver.step(self.scene.time_step, k)
             n -= k
 
+    @_one_thread
     def advance_to(self, t_end: float, max_steps: int | None = None) -> int:
         """Step until the simulated time reaches t_end, or max_steps were taken;
         returns the steps taken.
@@ -220,6 +243,7 @@ class Simulation:
             return not t_end - self.time > 1e-12 * max(1.0, abs(t_end))
         return math.ceil((t_end - self.time) / self.scene.time_step - 1e-9) <= 0
 
+    @_one_thread
     def run(self, duration: float | None = None, progress: bool = False,
             callback: Callable[[Simulation], None] | None = None,
             every: float | None = None) -> None:
@@ -282,10 +306,12 @@ class Simulation:
                         "halved time steps")
         return "what to change: " + "; ".join(tips)
 
+    @_one_thread
     def compute_forces(self) -> None:
         """Density, pressure and acceleration for the current state; nothing moves."""
         self._solver.compute_forces()
 
+    @_one_thread
     def set_state(self, positions, velocities, ids=None) -> None:
         """Replace all particles (N may change). ids default to 0..N-1; given,
         they must be distinct integers >= 0 (ValueError otherwise)."""
@@ -301,6 +327,7 @@ class Simulation:
         self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float), ids)
 
     # -- editing (the viewer's terrain tools use these)
+    @_one_thread
     def add_particles(self, positions, velocities=None) -> None:
         """Append particles (n, 2) with fresh ids; any outside the domain are dropped
         (and counted as removed)."""
@@ -308,6 +335,7 @@ class Simulation:
         vel = np.zeros_like(pos) if velocities is None else np.asarray(velocities, float)
         self._solver.add_particles(pos, vel.reshape(-1, 2))
 
+    @_one_thread
     def set_walls(self, walls) -> None:
         """Replace the walls: a sequence of segments ((x1, y1), (x2, y2)).
 
@@ -319,10 +347,12 @@ class Simulation:
         segs = tuple((tuple(map(float, a)), tuple(map(float, b))) for a, b in arr)
         self.scene = dataclasses.replace(self.scene, walls=segs, wall_velocities=())
 
+    @_one_thread
     def add_wall(self, a, b) -> None:
         """Add the wall segment a -> b (points [x, y], m)."""
         self.set_walls([*self.scene.walls, (tuple(a), tuple(b))])
 
+    @_one_thread
     def remove_wall(self, index: int) -> None:
         """Remove wall segment number ``index`` (as in ``walls``)."""
         walls = list(self.scene.walls)
@@ -426,6 +456,7 @@ class Simulation:
         """What each recent retry was for, oldest first (at most 100)."""
         return list(self._solver.retry_log)
 
+    @_one_thread
     def save_state(self, path) -> None:
         """Write a checkpoint of the current state (after a trip: the last good
         one) to path, an .npz file (sphfluid.checkpoint): ``load_state`` or
@@ -435,6 +466,7 @@ class Simulation:
 
         checkpoint.save(self, path)
 
+    @_one_thread
     def load_state(self, path) -> None:
         """Continue from a checkpoint written by ``save_state`` for this scene
         (sphfluid.checkpoint.CheckpointError, a ValueError, for another scene,
