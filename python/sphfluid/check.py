@@ -13,6 +13,7 @@ all particles against one segment at a time.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -104,11 +105,13 @@ def wall_paths(scene: Scene, raw: Mapping[str, Any] | None) -> list[str]:
 
 
 def _distance_to_segment(pos: np.ndarray, a, b) -> np.ndarray:
-    """Distances of the points pos (n, 2) to the segment a-b."""
+    """Distances of the points pos (n, 2) to the segment a-b, or of one point
+    (2,) to the segments a-b ((s, 2) each): numpy broadcasting."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     ab = b - a
-    t = np.clip((pos - a) @ ab / float(ab @ ab), 0.0, 1.0)
-    return np.hypot(*(pos - a - t[:, None] * ab).T)
+    t = np.clip(((pos - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
+    d = pos - a - t[..., None] * ab
+    return np.hypot(d[..., 0], d[..., 1])
 
 
 def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
@@ -213,24 +216,25 @@ def wall_gaps(scene: Scene, raw: Mapping[str, Any] | None = None) -> list[Findin
     scale = max(1.0, float(np.abs(ends).max()))
     touch = 1e-9 * scale
     paths = wall_paths(scene, raw)
+    # a free end is one no other segment has (a joint a hair apart is taken as
+    # touching below: its gap is within `touch`)
+    uses = Counter(map(tuple, ends.tolist()))
     out: list[Finding] = []
     reported: set[tuple[str, ...]] = set()
     for i, end in enumerate(ends):
+        if uses[tuple(end.tolist())] > 1:
+            continue  # joined to another segment (the loader refuses zero lengths)
         seg = i // 2
-        shared = np.hypot(*(ends - end).T) <= touch
-        shared[2 * seg:2 * seg + 2] = False
-        if shared.any():
-            continue  # joined to another segment
-        others = [k for k in range(len(walls)) if k != seg]
-        dist = np.array([_distance_to_segment(end[None], *walls[k])[0] for k in others])
+        dist = _distance_to_segment(end, walls[:, 0], walls[:, 1])
+        dist[seg] = np.inf
         k = int(np.argmin(dist))
         gap = float(dist[k])
         if touch < gap < GAP_SPACINGS * dx:
-            key = tuple(sorted((paths[seg], paths[others[k]])))  # a gap between two, once
+            key = tuple(sorted((paths[seg], paths[k])))  # a gap between two, once
             if key in reported:
                 continue
             reported.add(key)
-            where = f"{paths[others[k]]}" if paths[others[k]] != paths[seg] else "itself"
+            where = f"{paths[k]}" if paths[k] != paths[seg] else "itself"
             out.append(Finding(
                 "warning", paths[seg], f"ends at ({end[0]:g}, {end[1]:g}), {gap:.3g} m "
                 f"({gap / dx:.2g} spacings) from {where}: fluid leaks through a gap that "

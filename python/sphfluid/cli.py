@@ -223,7 +223,8 @@ def _add_validate(sub) -> None:
 
     v = sub.add_parser("validate", help="accuracy against known answers, with run times",
                        description="Run the validation cases (hydrostatic tank, dam break vs "
-                                   "Martin & Moyce, Poiseuille, Taylor-Green, droplet) at "
+                                   "Martin & Moyce, its pressure on the far wall vs Buchner, "
+                                   "Poiseuille, Taylor-Green, droplets, lid-driven cavity) at "
                                    "several resolutions for every method; print a table per "
                                    "case with the error and the wall time, plot error against "
                                    "run time. --quick checks each error against its bound "
