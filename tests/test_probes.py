@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import json
 import math
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -64,15 +63,15 @@ def test_probes_load_and_round_trip():
     ({"points": [{"at": [0.5, 0.5]}]}, "probes.points[0].name: required key is missing"),
     ({"points": [{"name": "a", "at": [0.5, 0.5]}], "surface": [{"name": "a", "x": 0.5}]},
      'probes.surface[0].name: "a" is already the name of probes.points[0]'),
-    ({"points": [{"name": "a,b", "at": [0.5, 0.5]}]}, "probes.points[0].name: must not "
-     "contain commas"),
+    ({"points": [{"name": "a,b", "at": [0.5, 0.5]}]}, "probes.points[0].name: expected a "
+     "name with no commas, quotes or line breaks"),
     ({"surface": [{"name": "s", "x": 2.0}]}, "probes.surface[0].x: 2 is outside the domain"),
     ({"walls": [{"name": "w", "segments": [3]}]}, "probes.walls[0].segments[0]: no segment 3: "
      "the walls have 3 segment(s)"),
-    ({"walls": [{"name": "w", "segments": [1, 1]}]}, "probes.walls[0].segments[1]: segment 1 "
-     "is listed twice"),
-    ({"walls": [{"name": "w", "segments": [0.5]}]}, "probes.walls[0].segments[0]: expected a "
-     "segment index"),
+    ({"walls": [{"name": "w", "segments": [1, 1]}]}, "probes.walls[0].segments: lists 1 more "
+     "than once"),
+    ({"walls": [{"name": "w", "segments": [0.5]}]}, "probes.walls[0].segments[0]: expected an "
+     "integer, got the number 0.5"),
     ({"walls": [{"name": "w", "segments": []}]}, "probes.walls[0].segments: expected a "
      "non-empty list"),
     ({"points": [{"name": "a", "at": [0.5, 0.5]}], "every": 0}, "probes.every: must be > 0"),
@@ -83,15 +82,6 @@ def test_bad_probes_are_refused_with_their_json_path(probes, problem):
     with pytest.raises(sphfluid.SceneError) as e:
         sphfluid.load_scene(tank(probes))
     assert any(p.startswith(problem) for p in e.value.problems), e.value.problems
-
-
-def test_schema_lists_the_probe_keys_the_loader_accepts():
-    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text())
-    props = schema["properties"]["probes"]["properties"]
-    assert set(props) == set(pr._PROBES_KEYS)
-    assert set(props["points"]["items"]["properties"]) == set(pr._POINT_KEYS)
-    assert set(props["surface"]["items"]["properties"]) == set(pr._SURFACE_KEYS)
-    assert set(props["walls"]["items"]["properties"]) == set(pr._WALL_KEYS)
 
 
 # --------------------------------------------------------------------------- the values

@@ -40,7 +40,7 @@ CASES = [
     (delp(["format"]), r"format: required key is missing"),
     (setp(["solvr"], {}), r'solvr: unknown key \(did you mean "solver"\?\)'),
     (setp(["fluid", "rest_density"], -1), r"fluid.rest_density: must be > 0, got -1"),
-    (setp(["fluid", "rest_density"], "1000"), r"fluid.rest_density: expected a number, got the string '1000'"),
+    (setp(["fluid", "rest_density"], "1000"), r"fluid.rest_density: expected a number, got the string \"1000\""),
     (setp(["fluid", "rest_density"], True), r"fluid.rest_density: expected a number, got a boolean"),
     (delp(["fluid", "gas_constant"]), r"fluid.gas_constant: required key is missing \(the seed method"),
     (setp(["fluid", "viscosity"], -0.1), r"fluid.viscosity: must be >= 0, got -0.1"),
@@ -54,9 +54,9 @@ CASES = [
     (setp(["walls", 0], {"polyline": [[0, 0], [1, 0], [1, 0]]}), r"walls\[0\].polyline\[2\]: repeats the previous point"),
     (setp(["walls", 0], {"polyline": [[0, 0]]}), r"walls\[0\].polyline: expected a list of at least 2 points"),
     (setp(["walls", 0], {"polyline": [[0, 0], [1, 0]], "closd": True}), r'walls\[0\].closd: unknown key \(did you mean "closed"\?\)'),
-    (setp(["walls", 0], [[0, 0], [1, "a"]]), r"walls\[0\]\[1\]: expected \[x, y\]"),
+    (setp(["walls", 0], [[0, 0], [1, "a"]]), r"walls\[0\]\[1\]\[1\]: expected a number, got the string \"a\""),
     (setp(["walls", 0], 5), r"walls\[0\]: expected a segment"),
-    (setp(["fluid_regions", 0, "shape"], "rectangel"), r'fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got "rectangel" \(did you mean "rectangle"\?\)'),
+    (setp(["fluid_regions", 0, "shape"], "rectangel"), r'fluid_regions\[0\].shape: expected one of "rectangle", "circle", "polygon", got "rectangel" \(did you mean "rectangle"\?\)'),
     (setp(["fluid_regions", 0, "max"], [0.0, 0.5]), r"fluid_regions\[0\]: min must be below max"),
     (setp(["fluid_regions", 0, "max"], [1.5, 0.5]), r"fluid_regions\[0\]: reaches outside the domain"),
     (setp(["fluid_regions", 0], {"shape": "circle", "center": [0.5, 0.5]}), r"fluid_regions\[0\].radius: required key is missing"),
@@ -65,7 +65,7 @@ CASES = [
     (setp(["fluid_regions", 0], {"shape": "polygon", "points": [[0, 0], [0.5, 0.5]]}), r"fluid_regions\[0\].points: expected a list of at least 3 points"),
     (setp(["fluid_regions", 0, "velocity"], [1.0]), r"fluid_regions\[0\].velocity: expected \[x, y\]"),
     (setp(["fluid_regions", 0, "colour"], "blue"), r"fluid_regions\[0\].colour: unknown key"),
-    (setp(["solver", "method"], "sead"), r'solver.method: unknown method "sead" \(did you mean "seed"\?\)'),
+    (setp(["solver", "method"], "sead"), r'solver.method: expected "seed" or "wcsph", got "sead" \(did you mean "seed"\?\)'),
     (delp(["solver", "time_step"]), r"solver.time_step: required key is missing"),
     (setp(["solver", "time_step"], -0.001), r"solver.time_step: must be > 0, got -0.001"),
     (setp(["solver", "wall_restitution"], 1.5), r"solver.wall_restitution: must be <= 1, got 1.5"),
@@ -78,8 +78,8 @@ CASES = [
     (setp(["fluid"], None), r"fluid: expected an object, got null"),
     (setp(["resolution"], None), r"resolution: expected an object, got null"),
     (setp(["fluid_regions"], None), r"fluid_regions: expected a list, got null"),
-    (setp(["fluid_regions", 0, "shape"], ["circle"]), r'fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got \["circle"\]'),
-    (setp(["fluid_regions", 0, "shape"], {}), r"fluid_regions\[0\].shape: expected one of rectangle, circle, polygon, got \{\}"),
+    (setp(["fluid_regions", 0, "shape"], ["circle"]), r'fluid_regions\[0\].shape: expected one of "rectangle", "circle", "polygon", got \["circle"\]'),
+    (setp(["fluid_regions", 0, "shape"], {}), r'fluid_regions\[0\].shape: expected one of "rectangle", "circle", "polygon", got \{\}'),
 ]
 
 
@@ -197,19 +197,89 @@ def test_bundled_scene_round_trips_through_to_dict(path):
     assert again == scene
 
 
-def test_json_schema_lists_exactly_the_keys_the_loader_accepts():
-    from importlib import resources
+def _schema_validator():
+    import jsonschema
+    from sphfluid.schema import scene_schema
 
-    from sphfluid import scene as sc
+    return jsonschema.Draft202012Validator(scene_schema())
 
-    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text())
-    props = schema["properties"]
-    assert set(props) == set(sc._TOP_KEYS)
-    assert set(props["domain"]["properties"]) == set(sc._DOMAIN_KEYS)
-    assert set(props["fluid"]["properties"]) == set(sc._FLUID_KEYS)
-    assert set(props["resolution"]["properties"]) == set(sc._RESOLUTION_KEYS)
-    assert set(props["solver"]["properties"]) == set(sc._SOLVER_KEYS)
-    assert props["solver"]["properties"]["method"]["enum"] == list(sc.METHODS)
-    shapes = {s["properties"]["shape"]["const"]: set(s["properties"])
-              for s in props["fluid_regions"]["items"]["oneOf"]}
-    assert shapes == {k: set(v) for k, v in sc._SHAPE_KEYS.items()}
+
+def test_the_schema_is_a_valid_json_schema():
+    import jsonschema
+    from sphfluid.schema import scene_schema
+
+    jsonschema.Draft202012Validator.check_schema(scene_schema())
+
+
+@pytest.mark.parametrize("edit,message", CASES, ids=[c[1][:40] for c in CASES])
+def test_the_schema_alone_refuses_exactly_the_type_and_range_mistakes(edit, message):
+    # The loader reports the schema's problems first, then its own (geometry,
+    # comparisons between values, memory): a message comes from the schema
+    # exactly when a plain JSON Schema validator refuses the scene (numbers
+    # that are not finite aside: JSON has none, a schema cannot refuse them).
+    from sphfluid.schema import problems
+
+    data = broken(edit)
+    plain = not _schema_validator().is_valid(data)
+    finite = all(np.isfinite(v) for v in _numbers(data))
+    assert bool(problems(data)) == (plain or not finite)
+    with pytest.raises(SceneError) as info:
+        sphfluid.load_scene(data)
+    from_schema = {f"{path}: {msg}" for path, msg in problems(data)}
+    assert from_schema <= set(info.value.problems)
+
+
+def _numbers(value):
+    if isinstance(value, dict):
+        value = list(value.values())
+    if isinstance(value, list):
+        return [x for v in value for x in _numbers(v)]
+    return [value] if isinstance(value, float) else []
+
+
+@pytest.mark.parametrize("path", SCENES, ids=SCENE_IDS)
+def test_bundled_scenes_and_their_round_trips_meet_the_schema(path):
+    validator = _schema_validator()
+    assert validator.is_valid(json.loads(path.read_text()))
+    assert validator.is_valid(sphfluid.load_scene(path).to_dict())
+
+
+def test_scene_defaults_are_the_schemas():
+    import dataclasses
+
+    from sphfluid.schema import default
+
+    fields = {f.name: f.default for f in dataclasses.fields(sphfluid.Scene)}
+    assert fields["gravity"] == tuple(default("gravity"))
+    assert fields["periodic"] == tuple(default("domain", "periodic"))
+    for key in ("viscosity", "surface_tension", "artificial_viscosity", "background_pressure"):
+        assert fields[key] == default("fluid", key), key
+    for key in ("cfl", "on_instability", "pair_precision", "density_diffusion", "shifting"):
+        assert fields[key] == default("solver", key), key
+    assert fields["wall_restitution"] == default("solver", "wall_restitution")
+    assert fields["method"] == default("solver", "method")
+
+
+def test_a_rule_between_keys_comes_from_the_schema():
+    def edit(d):
+        d["solver"]["cfl"] = 0.3  # with a fixed time step
+
+    data = broken(edit)
+    assert not _schema_validator().is_valid(data)
+    with pytest.raises(SceneError, match=r'solver.cfl: only applies with "time_step": "auto"'):
+        sphfluid.load_scene(data)
+
+
+def test_malformed_values_give_messages_not_tracebacks():
+    cases = [
+        (setp(["fluid", "rest_density"], 10**400), r"fluid.rest_density: must be finite"),
+        (setp(["resolution"], {"spacing": 0.9e308}), r"resolution.spacing: must be smaller than the domain"),
+        (setp(["name"], [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]),
+         r"nested more than 64 levels deep"),
+        (setp(["solver"], None), r"solver: expected an object, got null"),
+        (setp(["walls", 0], [[0, 0], [1e-320, 0]]), r"walls\[0\]: segment has zero length"),
+        (setp(["fluid_regions", 0], {}), r'fluid_regions\[0\].shape: required key is missing'),
+    ]
+    for edit, message in cases:
+        with pytest.raises(SceneError, match=message):
+            sphfluid.load_scene(broken(edit))

@@ -184,11 +184,18 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
     info.append(f"time step    {step_text}; stability limit at the start {limit.dt:.3g} s "
                 f"({limit.limit})")
     if scene.duration is not None:
-        if scene.time_step is not None:
-            steps = math.ceil(scene.duration / scene.time_step - 1e-9)
+        dt = scene.time_step if scene.time_step is not None else limit.dt
+        steps_f = scene.duration / dt
+        if not steps_f <= MAX_STEPS:  # also inf and NaN
+            where = "solver.time_step" if scene.time_step is not None else "solver"
+            findings.append(Finding("error", where, f"{steps_f:.3g} steps of {dt:.3g} s to "
+                                    f"t = {scene.duration:g} s, more than the {MAX_STEPS:.0e} "
+                                    "a run may take: a larger time step or a shorter duration"))
+        elif scene.time_step is not None:
+            steps = math.ceil(steps_f - 1e-9)
             info.append(f"steps        {steps:,} to t = {scene.duration:g} s")
         else:
-            steps = math.ceil(scene.duration / limit.dt - 1e-9)
+            steps = math.ceil(steps_f - 1e-9)
             info.append(f"steps        about {steps:,} to t = {scene.duration:g} s at the "
                         "start's step limit (more if the flow speeds up)")
     else:
@@ -196,6 +203,9 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
     return Report(findings, info)
 
 
+# The most steps a scene's run may take to its duration (a billion steps of the
+# smallest scene take days here).
+MAX_STEPS = 10**9
 # A wall's free end closer than this (in spacings) to another wall is a gap; a wider
 # one is taken as a deliberate opening (the terrain scene's catch slope stops 2.5
 # spacings short of the wall, to drain into the basin).
@@ -292,32 +302,3 @@ def _shared_rows(a: np.ndarray, b: np.ndarray) -> int:
         return 0
     pack = lambda k: k[:, 0] * (1 << 32) + k[:, 1]  # noqa: E731  (|i|, |j| < 2^31)
     return int(np.intersect1d(pack(a), pack(b), assume_unique=True).size)
-
-
-def schema_findings(raw: Any) -> list[Finding] | None:
-    """The scene's JSON against the shipped JSON Schema, one error per
-    violation by JSON path; None when jsonschema is not installed."""
-    try:
-        import jsonschema
-    except ImportError:
-        return None
-    import json
-    from importlib import resources
-
-    schema = json.loads(resources.files("sphfluid").joinpath("scene.schema.json").read_text(
-        encoding="utf-8"))
-    validator = jsonschema.Draft202012Validator(schema)
-    out = []
-    for e in sorted(validator.iter_errors(raw), key=lambda e: list(map(str, e.absolute_path))):
-        out.append(Finding("error", json_path(e.absolute_path) or "(top level)",
-                           f"the JSON Schema refuses it ({e.message}), though the loader "
-                           "accepts it: the two disagree"))
-    return out
-
-
-def json_path(parts) -> str:
-    """["walls", 3, "polyline"] as walls[3].polyline."""
-    text = ""
-    for p in parts:
-        text += f"[{p}]" if isinstance(p, int) else (f".{p}" if text else str(p))
-    return text

@@ -129,7 +129,7 @@ def _add_record(sub) -> None:
 def _add_check(sub) -> None:
     c = sub.add_parser("check", help="check a scene before running it",
                        description="Load a scene (its errors by JSON path), validate it "
-                                   "against the JSON Schema when jsonschema is installed, then "
+                                   "against the JSON Schema and what it cannot say, then "
                                    "check its initial particles, walls and time step: "
                                    "particles outside the domain, overlapping a wall or "
                                    "another region, gaps between walls narrower than two "
@@ -669,19 +669,15 @@ def _print_summary(run: _Run) -> None:
 
 
 def _check(args) -> int:
-    """`sphfluid check`: the loader, the JSON Schema, then the physical checks."""
-    from .check import check_scene, schema_findings
+    """`sphfluid check`: the loader (the JSON Schema, then what it cannot say), then
+    the physical checks."""
+    from .check import check_scene
     from .scene import load_scene
 
     scene = load_scene(args.scene)  # a SceneError: its problems, exit 2 (main)
     raw = json.loads(Path(args.scene).read_text(encoding="utf-8"))
-    findings = schema_findings(raw)
-    if findings is None:
-        print("note: jsonschema is not installed: the scene was not validated against the "
-              "JSON Schema (pip install jsonschema)")
-        findings = []
     report = check_scene(scene, raw)
-    findings += report.findings
+    findings = list(report.findings)
     estimate = None
     if not any(f.level == "error" for f in findings):
         from .check import run_time

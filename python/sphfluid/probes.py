@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,10 +29,6 @@ MIN_KERNEL_SUM = 0.5
 # Query points times particles per block of the brute-force interpolation.
 _BLOCK = 2_000_000
 
-_PROBES_KEYS = ("points", "surface", "walls", "every")
-_POINT_KEYS = ("name", "at")
-_SURFACE_KEYS = ("name", "x")
-_WALL_KEYS = ("name", "segments")
 POINT_COLUMNS = ("p", "u", "v", "rho")  # Pa, m/s, m/s, kg/m^3
 SURFACE_COLUMNS = ("height",)  # m
 WALL_COLUMNS = ("fx", "fy", "fx_viscous", "fy_viscous")  # N/m: pressure and viscous parts
@@ -86,88 +81,56 @@ class Probes:
 
 # --------------------------------------------------------------------------- validation
 
-def read_probes(v, raw: Any, lo, hi, n_segments: int | None) -> Probes | None:
-    """The scene's "probes", checked with the scene validator ``v`` (its problems
-    named by JSON path); lo, hi: the domain's corners (None after a problem);
-    n_segments: the walls' segment count (None after a problem)."""
-    if (obj := v.obj(raw, "probes")) is None:
+def read_probes(v, raw: dict, lo, hi, n_segments: int | None) -> Probes | None:
+    """The scene's "probes", which the JSON Schema has checked, read with the
+    scene validator ``v``: what the schema cannot say (unique names, inside the
+    domain, segments that exist) as problems by JSON path; lo, hi: the domain's
+    corners (None after a problem); n_segments: the walls' segment count (None
+    after a problem). None after any problem."""
+    if not v.ok("probes"):
         return None
     n_before = len(v.problems)
-    v.keys(obj, _PROBES_KEYS, "probes.")
     names: dict[str, str] = {}  # name -> the path of the probe that has it
 
-    def items(key: str, allowed: Sequence[str]):
-        raw_list = obj.get(key, [])
-        if not isinstance(raw_list, list):
-            v.fail(f"probes.{key}", f"expected a list, got {_kind(raw_list)}")
-            return
-        for i, item in enumerate(raw_list):
+    def items(key: str):
+        for i, item in enumerate(raw.get(key, [])):
             path = f"probes.{key}[{i}]"
-            if (item := v.obj(item, path)) is None:
-                continue
-            v.keys(item, allowed, f"{path}.")
-            name = item.get("name")
-            if "name" not in item:
-                v.missing(f"{path}.name")
-            elif not isinstance(name, str) or not name.strip():
-                v.fail(f"{path}.name", f"expected a non-empty string, got {_kind(name)}")
-            elif any(c in name for c in ',"\n\r'):
-                v.fail(f"{path}.name", "must not contain commas, quotes or line breaks "
-                       "(it names CSV columns)")
-            elif name in names:
+            name = item["name"]
+            if name in names:
                 v.fail(f"{path}.name", f"{json.dumps(name)} is already the name of "
                        f"{names[name]}; probe names must be unique")
-            else:
-                names[name] = path
+            names.setdefault(name, path)
             yield path, item, name
 
     points = []
-    for path, item, name in items("points", _POINT_KEYS):
-        at = v.point_at(item, "at", f"{path}.", required=True)
-        if at and lo and hi and not (lo[0] <= at[0] <= hi[0] and lo[1] <= at[1] <= hi[1]):
+    for path, item, name in items("points"):
+        at = v.point(item, "at", path)
+        if lo and hi and not (lo[0] <= at[0] <= hi[0] and lo[1] <= at[1] <= hi[1]):
             v.fail(f"{path}.at", f"{list(at)} is outside the domain (min {list(lo)}, "
                    f"max {list(hi)})")
         points.append(PointProbe(name, at))
     surface = []
-    for path, item, name in items("surface", _SURFACE_KEYS):
-        x = v.number_at(item, "x", f"{path}.", required=True)
-        if x is not None and lo and hi and not lo[0] <= x <= hi[0]:
+    for path, item, name in items("surface"):
+        x = float(item["x"])
+        if lo and hi and not lo[0] <= x <= hi[0]:
             v.fail(f"{path}.x", f"{x:g} is outside the domain ({lo[0]:g} to {hi[0]:g})")
         surface.append(SurfaceProbe(name, x))
     walls = []
-    for path, item, name in items("walls", _WALL_KEYS):
-        segs = item.get("segments")
-        if "segments" not in item:
-            v.missing(f"{path}.segments", "indices of the scene's wall segments, a "
-                      "polyline counting one per segment")
-            segs = []
-        elif not isinstance(segs, list) or not segs:
-            v.fail(f"{path}.segments", f"expected a non-empty list of segment indices, "
-                   f"got {_kind(segs)}")
-            segs = []
+    for path, item, name in items("walls"):
+        segs = tuple(int(s) for s in item["segments"])
         for j, s in enumerate(segs):
-            if isinstance(s, bool) or not isinstance(s, int):
-                v.fail(f"{path}.segments[{j}]", f"expected a segment index, got {_kind(s)}")
-            elif n_segments is not None and not 0 <= s < n_segments:
+            if n_segments is not None and s >= n_segments:
                 v.fail(f"{path}.segments[{j}]", f"no segment {s}: the walls have "
                        f"{n_segments} segment(s), numbered from 0 (a polyline counts one "
                        "per segment)")
-            elif segs.index(s) != j:
-                v.fail(f"{path}.segments[{j}]", f"segment {s} is listed twice")
-        walls.append(WallProbe(name, tuple(s for s in segs if isinstance(s, int))))
-    every = v.number_at(obj, "every", "probes.", low=0)
+        walls.append(WallProbe(name, segs))
+    every = v.number(raw, "every", "probes.")
     if len(v.problems) > n_before:
         return None
     if not (points or surface or walls):
         v.fail("probes", 'has no probe: give "points", "surface" or "walls"')
         return None
     return Probes(tuple(points), tuple(surface), tuple(walls), every)
-
-
-def _kind(value: Any) -> str:
-    from .scene import _kind as kind
-
-    return kind(value)
 
 
 # --------------------------------------------------------------------------- sampling

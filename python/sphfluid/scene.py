@@ -7,28 +7,44 @@ the scene is valid.
 """
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import os
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
-FORMAT = "sphfluid-scene/1"
-METHODS = ("seed", "wcsph")
+from . import schema as _schema
 
-# Defaults, in one place (units in the comments).
-DEFAULT_GRAVITY = (0.0, -9.81)  # m/s^2
-DEFAULT_VISCOSITY = 0.0  # Pa s
-DEFAULT_SURFACE_TENSION = 0.0  # N (2D)
+FORMAT = _schema.scene_schema()["properties"]["format"]["const"]  # "sphfluid-scene/1"
+METHODS = tuple(_schema.scene_schema()["properties"]["solver"]["properties"]["method"]["enum"])
+
+# Defaults: the schema's ("default"), named here (units in the comments).
+DEFAULT_GRAVITY = tuple(_schema.default("gravity"))  # m/s^2
+DEFAULT_VISCOSITY = _schema.default("fluid", "viscosity")  # Pa s
+DEFAULT_SURFACE_TENSION = _schema.default("fluid", "surface_tension")  # N (2D)
+DEFAULT_ARTIFICIAL_VISCOSITY = _schema.default("fluid", "artificial_viscosity")  # wcsph alpha
+DEFAULT_BACKGROUND_PRESSURE = _schema.default("fluid", "background_pressure")  # Pa
+DEFAULT_PERIODIC = tuple(_schema.default("domain", "periodic"))
+DEFAULT_CLOSED = False  # a polyline's "closed"
+DEFAULT_VELOCITY = (0.0, 0.0)  # a region's or a wall surface's "velocity", m/s
+DEFAULT_RESTITUTION = _schema.default("solver", "wall_restitution")  # mirror reflection
+DEFAULT_CFL = _schema.default("solver", "cfl")  # CFL factor of the adaptive time step
+ON_INSTABILITY = tuple(_schema.scene_schema()["properties"]["solver"]["properties"]
+                       ["on_instability"]["enum"])  # the first is the default
+PAIR_PRECISIONS = tuple(_schema.scene_schema()["properties"]["solver"]["properties"]
+                        ["pair_precision"]["enum"])
+# wcsph with continuity: delta (W18)
+DEFAULT_DENSITY_DIFFUSION = _schema.default("solver", "density_diffusion")
+# wcsph with continuity: the shifting coefficient k (W21), or "auto": AUTO_SHIFTING
+# in a flow with no free surface at its start (a confined one), none in others
+DEFAULT_SHIFTING = _schema.default("solver", "shifting")
+AUTO_SHIFTING = 8.0
 DEFAULT_SMOOTHING_FACTOR = 2.0  # h = factor * spacing
-DEFAULT_RESTITUTION = 1.0  # mirror reflection, as the seed paper describes
-DEFAULT_CFL = 0.4  # CFL factor of the adaptive time step
-DEFAULT_ARTIFICIAL_VISCOSITY = 0.1  # wcsph: Monaghan's alpha
+CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
 # Mueller et al. (2003): threshold l = 7.065 /m at h = 0.0457 m, so l h = 0.323.
 DEFAULT_SURFACE_THRESHOLD_TIMES_H = 0.323
 
@@ -41,21 +57,6 @@ MAX_TENSION_NODES = 50_000_000
 BYTES_PER_PARTICLE = 512  # state, sort scratch, neighbour lists, set-up temporaries
 MAX_PARTICLES = 2**31 - 2  # particle indices are 32-bit in the core
 
-# "$schema" (extension): the schema an editor validates the file against
-# (`sphfluid schema` prints it); the loader ignores its value.
-_TOP_KEYS = ("$schema", "format", "name", "gravity", "domain", "fluid", "resolution",
-             "fluid_regions", "walls", "solver", "duration", "probes")
-_DOMAIN_KEYS = ("min", "max", "periodic")
-_FLUID_KEYS = ("rest_density", "gas_constant", "viscosity", "surface_tension",
-               "speed_of_sound", "artificial_viscosity", "background_pressure")
-_RESOLUTION_KEYS = ("spacing", "smoothing_length", "particle_mass")
-_SOLVER_KEYS = ("method", "time_step", "cfl", "on_instability", "wall_restitution",
-                "surface_threshold", "pair_precision", "density", "density_diffusion", "shifting")
-ON_INSTABILITY = ("stop", "retry")
-PAIR_PRECISIONS = ("double", "float")
-# wcsph's density (docs/method-wcsph.md, W17 / W2); the seed sums
-DENSITIES = ("continuity", "summation")
-
 
 def default_density(method: str, surface_tension: float | None, sliding: bool = False) -> str:
     """solver.density where a scene does not say: the continuity density for
@@ -67,18 +68,6 @@ def default_density(method: str, surface_tension: float | None, sliding: bool = 
     if method != "wcsph" or (surface_tension and not sliding):
         return "summation"
     return "continuity"
-DEFAULT_DENSITY_DIFFUSION = 0.1  # wcsph with continuity: delta (W18)
-# wcsph with continuity: the shifting coefficient k (W21), or "auto": AUTO_SHIFTING
-# in a flow with no free surface at its start (a confined one), none in others
-DEFAULT_SHIFTING = "auto"
-AUTO_SHIFTING = 8.0
-CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
-_SHAPE_KEYS = {
-    "rectangle": ("shape", "min", "max", "velocity"),
-    "circle": ("shape", "center", "radius", "velocity"),
-    "polygon": ("shape", "points", "velocity"),
-}
-_POLYLINE_KEYS = ("polyline", "closed", "velocity")
 
 
 class SceneError(ValueError):
@@ -206,7 +195,7 @@ class Scene:
         return _fill_regions(self.regions, self.spacing)
 
     def estimated_particles(self) -> int:
-        return int(sum(r.area() for r in self.regions) / self.spacing**2)
+        return int(sum(r.area() for r in self.regions) / self.spacing / self.spacing)
 
     def to_dict(self) -> dict:
         """The scene as a JSON-ready dict that loads back to an equal Scene."""
@@ -280,6 +269,9 @@ def load_scene(source: str | os.PathLike | Mapping[str, Any]) -> Scene:
     """
     if isinstance(source, Mapping):
         return _Validator(dict(source), None).scene()
+    if not isinstance(source, (str, os.PathLike)):  # parsed JSON that is not an object
+        raise SceneError([f"expected a JSON object at the top level (or a file's path), got "
+                          f"{_schema.kind(source)}"])
     path = Path(source)
     label = str(source)
     try:
@@ -297,8 +289,13 @@ def load_scene(source: str | os.PathLike | Mapping[str, Any]) -> Scene:
                          label) from None
     except _DuplicateKey as e:
         raise SceneError([f"duplicate key {e.args[0]!r} in one JSON object"], label) from None
+    except RecursionError:
+        raise SceneError(["invalid JSON: arrays or objects nested too deeply"], label) from None
+    except ValueError as e:  # an integer beyond Python's digit limit (4300)
+        raise SceneError([f"invalid JSON: a number too long to read ({str(e).split(':')[0]})"],
+                         label) from None
     if not isinstance(data, dict):
-        raise SceneError([f"expected a JSON object at the top level, got {_kind(data)}"], label)
+        raise SceneError([f"expected a JSON object at the top level, got {_schema.kind(data)}"], label)
     return _Validator(data, label).scene()
 
 
@@ -315,22 +312,6 @@ def _no_duplicate_keys(pairs):
     return out
 
 
-def _kind(value: Any) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, (int, float)):
-        return f"the number {value!r}"
-    if isinstance(value, str):
-        return f"the string {value!r}"
-    if isinstance(value, list):
-        return f"a list of {len(value)}"
-    if isinstance(value, dict):
-        return "an object"
-    return type(value).__name__
-
-
 class _Domain(NamedTuple):
     lo: Point | None  # lower corner, m; None after a problem
     hi: Point | None  # upper corner, m
@@ -338,7 +319,7 @@ class _Domain(NamedTuple):
 
 
 class _Solver(NamedTuple):
-    method: Any  # as given: one of METHODS unless a problem was reported
+    method: Any  # one of METHODS, or None after a problem
     dt: float | None  # s; None when adaptive or after a problem
     adaptive: bool
     cfl: float | None
@@ -367,29 +348,27 @@ class _Resolution(NamedTuple):
     mass: float | None  # kg per m of depth
 
 
-def _did_you_mean(word: str, options: Iterable[str]) -> str:
-    near = difflib.get_close_matches(word, list(options), n=1)
-    return f' (did you mean "{near[0]}"?)' if near else ""
-
-
 class _Validator:
-    """Walks the raw JSON, collecting one message per problem.
+    """What the JSON Schema cannot say, on a scene the schema has checked.
 
-    One method per section of the scene, called in the order the problems are
-    reported, then the checks that need several sections. The primitives
-    return None (or the section's defaults) after reporting a problem.
+    The schema's problems come first (``schema.problems``); this class then
+    reads every value the schema accepted, fills the defaults, and checks the
+    geometry, the comparisons between values and the memory a scene needs.
+    A value at, above or below a path the schema refused reads as None, so
+    one mistake is reported once. One method per section, then the checks
+    that need several sections.
     """
 
     def __init__(self, data: dict, source: str | None):
         self.data = data
         self.source = source
-        self.problems: list[str] = []
+        found = _schema.problems(data)
+        self.problems: list[str] = [f"{path or '(top level)'}: {msg}" for path, msg in found]
+        self.refused = [path for path, _ in found]
 
     def fail(self, path: str, message: str) -> None:
         self.problems.append(f"{path}: {message}")
-
-    def missing(self, path: str, why: str = "") -> None:
-        self.fail(path, "required key is missing" + (f" ({why})" if why else ""))
+        self.refused.append(path)
 
     def raise_problems(self) -> None:
         if self.problems:
@@ -398,24 +377,25 @@ class _Validator:
     # -- the scene
     def scene(self) -> Scene:
         d = self.data
-        self.keys(d, _TOP_KEYS, "")
-        name, gravity = self.header(d)
-        domain = self.domain(d)
-        solver = self.solver(d)
-        fluid = self.fluid(d, solver.method)
-        walls = self.walls(d.get("walls", []))
+        name = self.value(d, "name", "", "")
+        gravity = self.point(d, "gravity", "", DEFAULT_GRAVITY)
+        domain = self.domain(self.section(d, "domain"))
+        solver = self.solver(self.section(d, "solver"))
+        fluid = self.fluid(self.section(d, "fluid"))
+        walls = self.walls(self.items(d, "walls"))
         if solver.density is None:  # a sliding wall needs the continuity density
             solver = solver._replace(density=default_density(
                 solver.method, fluid.sigma, bool(self.wall_velocities())))
-        res = self.resolution(d, continuity=solver.method == "wcsph"
-                              and solver.density == "continuity")
-        regions = self.regions(d)
-        duration = self.number_at(d, "duration", "", low=0)
+        res = self.resolution(self.section(d, "resolution"), continuity=solver.method ==
+                              "wcsph" and solver.density == "continuity")
+        regions = [r for i, item in enumerate(self.items(d, "fluid_regions"))
+                   if (r := self.region(item, f"fluid_regions[{i}]")) is not None]
+        duration = self.number(d, "duration", "")
         probes = None
-        if "probes" in d:
+        if isinstance(d.get("probes"), dict):
             from .probes import read_probes
 
-            n_segments = None if any(p.startswith("walls") for p in self.problems) else len(walls)
+            n_segments = None if any(p.startswith("walls") for p in self.refused) else len(walls)
             probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
 
         self.check_cell_grid(domain, res)
@@ -446,190 +426,90 @@ class _Validator:
         return scene
 
     # -- the sections, in the order their problems are reported
-    def header(self, d: dict) -> tuple[str, Point | None]:
-        """The format, the name and the gravity: (name, gravity)."""
-        if "format" not in d:
-            self.missing("format")
-        elif d["format"] != FORMAT:
-            self.fail("format", f'expected "{FORMAT}", got {json.dumps(d["format"])}')
-        if "$schema" in d and not isinstance(d["$schema"], str):
-            self.fail("$schema", f"expected a string (the schema's path or URL), got "
-                      f"{_kind(d['$schema'])}")
-        name = d.get("name", "")
-        if not isinstance(name, str):
-            self.fail("name", f"expected a string, got {_kind(name)}")
-            name = ""
-        gravity = self.point(d["gravity"], "gravity") if "gravity" in d else DEFAULT_GRAVITY
-        return name, gravity
+    def domain(self, dom: dict) -> _Domain:
+        lo = self.point(dom, "min", "domain.")
+        hi = self.point(dom, "max", "domain.")
+        if lo and hi and not (lo[0] < hi[0] and lo[1] < hi[1]):
+            self.fail("domain", f"min must be below max in x and y, got min {list(lo)}, "
+                      f"max {list(hi)}")
+            lo = hi = None
+        periodic = self.value(dom, "periodic", "domain.", DEFAULT_PERIODIC)
+        return _Domain(lo, hi, tuple(periodic or DEFAULT_PERIODIC))
 
-    def domain(self, d: dict) -> _Domain:
-        lo = hi = None
-        periodic = (False, False)
-        dom = self.section(d, "domain", _DOMAIN_KEYS)
-        if dom is not None:
-            lo = self.point_at(dom, "min", "domain.", required=True)
-            hi = self.point_at(dom, "max", "domain.", required=True)
-            if lo and hi and not (lo[0] < hi[0] and lo[1] < hi[1]):
-                self.fail("domain", f"min must be below max in x and y, got min {list(lo)}, "
-                          f"max {list(hi)}")
-                lo = hi = None
-            if "periodic" in dom:
-                periodic = self.flags(dom["periodic"], "domain.periodic")
-        return _Domain(lo, hi, periodic)
-
-    def solver(self, d: dict) -> _Solver:
-        solver = self.obj(d.get("solver", {}), "solver") or {}
-        self.keys(solver, _SOLVER_KEYS, "solver.")
-        method = solver.get("method", "seed")
-        if method not in METHODS:
-            self.fail("solver.method", f"unknown method {json.dumps(method)}"
-                      f"{_did_you_mean(str(method), METHODS)}; available: {', '.join(METHODS)}")
-        dt, adaptive = self.time_step(solver)
-        cfl = self.number_at(solver, "cfl", "solver.", DEFAULT_CFL, low=0, high=1)
-        if "cfl" in solver and cfl is not None and not adaptive and "time_step" in solver:
-            self.fail("solver.cfl", 'only applies with "time_step": "auto"')
-        restitution = self.number_at(solver, "wall_restitution", "solver.", DEFAULT_RESTITUTION,
-                                     low=0, strict=False, high=1)
-        on_instability = self.choice(solver, "on_instability", "solver.", ON_INSTABILITY)
-        pair_precision = self.choice(solver, "pair_precision", "solver.", PAIR_PRECISIONS)
-        if pair_precision == "float" and method == "wcsph":
-            self.fail("solver.pair_precision", '"float" applies to the seed method only')
-        threshold = self.number_at(solver, "surface_threshold", "solver.", low=0, strict=False)
-        density = self.choice(solver, "density", "solver.", DENSITIES)
+    def solver(self, solver: dict) -> _Solver:
+        p = "solver."
+        method = self.value(solver, "method", p, "seed")
+        step = self.value(solver, "time_step", p)
+        adaptive = step == "auto"
+        dt = None if adaptive or step is None else float(step)
+        density = self.value(solver, "density", p)
         if method != "wcsph":
             density = "summation"  # the seed's (SPEC.md)
-        elif "density" not in solver and not ({"density_diffusion", "shifting"} & set(solver)):
+        elif density is None and not ({"density", "density_diffusion", "shifting"} & set(solver)):
             density = None  # default_density's, once the fluid is known
-        diffusion = self.number_at(solver, "density_diffusion", "solver.",
-                                   DEFAULT_DENSITY_DIFFUSION, low=0, strict=False)
-        shifting = solver.get("shifting", DEFAULT_SHIFTING)
-        if not (isinstance(shifting, str) and shifting == "auto"):
-            if isinstance(shifting, str):
-                self.fail("solver.shifting", f'expected a number or "auto", got {json.dumps(shifting)}')
-                shifting = None
-            else:
-                shifting = self.number(shifting, "solver.shifting", low=0, strict=False)
-        for key in ("density", "density_diffusion", "shifting"):
-            if key in solver and method != "wcsph":
-                self.fail(f"solver.{key}", "applies to the wcsph method only")
-        for key in ("density_diffusion", "shifting"):
-            if key in solver and density != "continuity":
-                self.fail(f"solver.{key}", 'applies with "density": "continuity" only')
-        return _Solver(method, dt, adaptive, cfl, restitution, on_instability, pair_precision,
-                       threshold, density, diffusion, shifting)
+        else:
+            density = density or "continuity"
+        shifting = self.value(solver, "shifting", p, DEFAULT_SHIFTING)
+        return _Solver(
+            method, dt, adaptive,
+            cfl=self.number(solver, "cfl", p, DEFAULT_CFL),
+            restitution=self.number(solver, "wall_restitution", p, DEFAULT_RESTITUTION),
+            on_instability=self.value(solver, "on_instability", p, ON_INSTABILITY[0]),
+            pair_precision=self.value(solver, "pair_precision", p, PAIR_PRECISIONS[0]),
+            threshold=self.number(solver, "surface_threshold", p),
+            density=density,
+            density_diffusion=self.number(solver, "density_diffusion", p,
+                                          DEFAULT_DENSITY_DIFFUSION),
+            shifting=shifting if isinstance(shifting, str) or shifting is None
+            else float(shifting))
 
-    def time_step(self, solver: dict) -> tuple[float | None, bool]:
-        """solver.time_step, seconds or "auto": (dt, adaptive)."""
-        if "time_step" not in solver:
-            self.missing("solver.time_step", 'a time step in seconds, e.g. 0.0002, or "auto"')
-            return None, False
-        raw = solver["time_step"]
-        if raw == "auto":
-            return None, True
-        if isinstance(raw, str):
-            self.fail("solver.time_step", f'expected a number of seconds or "auto", got '
-                      f"{json.dumps(raw)}")
-            return None, False
-        return self.number(raw, "solver.time_step", low=0), False
-
-    def fluid(self, d: dict, method: Any) -> _Fluid:
-        fl = self.section(d, "fluid", _FLUID_KEYS)
-        if fl is None:
-            return _Fluid(None, None, DEFAULT_VISCOSITY, DEFAULT_SURFACE_TENSION, None, 0.0,
-                          DEFAULT_ARTIFICIAL_VISCOSITY)
+    def fluid(self, fl: dict) -> _Fluid:
         p = "fluid."
-        return _Fluid(  # arguments run in order: the problems keep the keys' order
-            rho0=self.number_at(fl, "rest_density", p, required=True, low=0),
-            k=self.number_at(fl, "gas_constant", p, required=method == "seed", low=0,
-                             why="the seed method's equation of state p = k (rho - rho0) "
-                                 "needs k"),
-            eta=self.number_at(fl, "viscosity", p, DEFAULT_VISCOSITY, low=0, strict=False),
-            sigma=self.number_at(fl, "surface_tension", p, DEFAULT_SURFACE_TENSION, low=0,
-                                 strict=False),
-            c0=self.number_at(fl, "speed_of_sound", p, low=0),
-            p_b=self.number_at(fl, "background_pressure", p, 0.0, low=0, strict=False),
-            alpha=self.number_at(fl, "artificial_viscosity", p, DEFAULT_ARTIFICIAL_VISCOSITY,
-                                 low=0, strict=False),
+        return _Fluid(
+            rho0=self.number(fl, "rest_density", p),
+            k=self.number(fl, "gas_constant", p),
+            eta=self.number(fl, "viscosity", p, DEFAULT_VISCOSITY),
+            sigma=self.number(fl, "surface_tension", p, DEFAULT_SURFACE_TENSION),
+            c0=self.number(fl, "speed_of_sound", p),
+            p_b=self.number(fl, "background_pressure", p, DEFAULT_BACKGROUND_PRESSURE),
+            alpha=self.number(fl, "artificial_viscosity", p, DEFAULT_ARTIFICIAL_VISCOSITY),
         )
 
-    def resolution(self, d: dict, continuity: bool = False) -> _Resolution:
+    def resolution(self, res: dict, continuity: bool = False) -> _Resolution:
         """The spacing, the support (by default 2 spacings; 3 for wcsph's continuity
         density, docs/method-wcsph.md) and the particle mass."""
-        res = self.section(d, "resolution", _RESOLUTION_KEYS)
-        if res is None:
-            return _Resolution(None, None, None)
-        dx = self.number_at(res, "spacing", "resolution.", required=True, low=0)
-        h = None
-        if "smoothing_length" in res:
-            h = self.number(res["smoothing_length"], "resolution.smoothing_length", low=0)
-            if h is not None and dx is not None and h <= dx:
-                self.fail("resolution.smoothing_length",
-                          f"must be > spacing ({dx:g}), got {h:g}: particles on the "
-                          "lattice would not see their neighbours")
-                h = None
-        elif dx is not None:
+        dx = self.number(res, "spacing", "resolution.")
+        h = self.number(res, "smoothing_length", "resolution.")
+        if h is not None and dx is not None and h <= dx:
+            self.fail("resolution.smoothing_length",
+                      f"must be > spacing ({dx:g}), got {h:g}: particles on the "
+                      "lattice would not see their neighbours")
+            h = None
+        elif "smoothing_length" not in res and dx is not None:
             h = (CONTINUITY_SMOOTHING_FACTOR if continuity else DEFAULT_SMOOTHING_FACTOR) * dx
-        mass = self.number_at(res, "particle_mass", "resolution.", low=0)
-        return _Resolution(dx, h, mass)
-
-    def regions(self, d: dict) -> list[Region]:
-        if "fluid_regions" not in d:
-            self.missing("fluid_regions")
-            return []
-        raw = d["fluid_regions"]
-        if not isinstance(raw, list):
-            self.fail("fluid_regions", f"expected a list, got {_kind(raw)}")
-            return []
-        regions = [self.region(item, f"fluid_regions[{i}]") for i, item in enumerate(raw)]
-        return [r for r in regions if r is not None]
+        return _Resolution(dx, h, self.number(res, "particle_mass", "resolution."))
 
     def region(self, item: Any, path: str) -> Region | None:
         """One fluid region; None if it has any problem."""
-        if (item := self.obj(item, path)) is None:
+        if not (isinstance(item, dict) and self.ok(path)):
             return None
-        shape = item.get("shape")
-        if not isinstance(shape, str) or shape not in _SHAPE_KEYS:
-            self.fail(f"{path}.shape", f"expected one of rectangle, circle, polygon, got "
-                      f"{json.dumps(shape)}{_did_you_mean(str(shape), _SHAPE_KEYS)}")
-            return None
-        n_before = len(self.problems)
-        self.keys(item, _SHAPE_KEYS[shape], f"{path}.")
-        velocity = self.point_at(item, "velocity", f"{path}.", (0.0, 0.0))
-        read = {"rectangle": self.rectangle, "circle": self.circle,
-                "polygon": self.polygon_region}[shape]
-        region = read(item, path, velocity or (0.0, 0.0))
-        return region if len(self.problems) == n_before else None
-
-    def rectangle(self, item: dict, path: str, velocity: Point) -> Region | None:
-        a = self.point_at(item, "min", f"{path}.", required=True)
-        b = self.point_at(item, "max", f"{path}.", required=True)
-        if not (a and b):
-            return None
-        if not (a[0] < b[0] and a[1] < b[1]):
-            self.fail(path, f"min must be below max in x and y, got min {list(a)}, "
-                      f"max {list(b)}")
-            return None
-        return Region("rectangle", (a, b), velocity=velocity)
-
-    def circle(self, item: dict, path: str, velocity: Point) -> Region | None:
-        c = self.point_at(item, "center", f"{path}.", required=True)
-        r = self.number_at(item, "radius", f"{path}.", required=True, low=0)
-        return Region("circle", (c,), radius=r, velocity=velocity) if c and r else None
-
-    def polygon_region(self, item: dict, path: str, velocity: Point) -> Region | None:
-        if "points" not in item:
-            self.missing(f"{path}.points")
-            return None
+        shape = item["shape"]
+        velocity = self.point(item, "velocity", f"{path}.", DEFAULT_VELOCITY)
+        if shape == "rectangle":
+            a, b = self.point(item, "min", path), self.point(item, "max", path)
+            if not (a[0] < b[0] and a[1] < b[1]):
+                self.fail(path, f"min must be below max in x and y, got min {list(a)}, "
+                          f"max {list(b)}")
+                return None
+            return Region("rectangle", (a, b), velocity=velocity)
+        if shape == "circle":
+            return Region("circle", (self.point(item, "center", path),),
+                          radius=float(item["radius"]), velocity=velocity)
         pts = self.polygon(item["points"], f"{path}.points")
         return Region("polygon", tuple(pts), velocity=velocity) if pts else None
 
-    def polygon(self, raw: Any, path: str) -> list[Point] | None:
-        if not isinstance(raw, list) or len(raw) < 3:
-            self.fail(path, f"expected a list of at least 3 points [x, y], got {_kind(raw)}")
-            return None
-        pts = [self.point(p, f"{path}[{i}]") for i, p in enumerate(raw)]
-        if any(p is None for p in pts):
-            return None
+    def polygon(self, raw: list, path: str) -> list[Point] | None:
+        pts = [(float(x), float(y)) for x, y in raw]
         crossing = _self_intersection(pts)
         if crossing:
             i, j = crossing
@@ -640,49 +520,33 @@ class _Validator:
             return None
         return pts
 
-    def walls(self, raw: Any) -> list[tuple[Point, Point]]:
+    def walls(self, raw: list) -> list[tuple[Point, Point]]:
         self._velocities: list[Point] = []  # one per segment
         self._moving_wall = ""  # the path of the first wall whose surface moves
-        if not isinstance(raw, list):
-            self.fail("walls", f"expected a list, got {_kind(raw)}")
-            return []
         out: list[tuple[Point, Point]] = []
         for i, item in enumerate(raw):
             path = f"walls[{i}]"
+            if not self.ok(path):
+                continue
             if isinstance(item, dict):
                 segs = self.polyline(item, path)
                 v = self.surface_velocity(item, path, segs)
-                out += segs
-                self._velocities += [v] * len(segs)
-            elif isinstance(item, list) and len(item) == 2:
-                segs = self.segment(item, path)
-                out += segs
-                self._velocities += [(0.0, 0.0)] * len(segs)
             else:
-                self.fail(path, "expected a segment [[x1, y1], [x2, y2]] or "
-                          f'{{"polyline": [[x, y], ...]}}, got {_kind(item)}')
+                segs = self.segment(item, path)
+                v = (0.0, 0.0)
+            out += segs
+            self._velocities += [v] * len(segs)
         return out
 
     def polyline(self, item: dict, path: str) -> list[tuple[Point, Point]]:
         """The segments of {"polyline": [[x, y], ...], "closed": false}."""
-        self.keys(item, _POLYLINE_KEYS, f"{path}.")
-        raw = item.get("polyline")
-        if not isinstance(raw, list) or len(raw) < 2:
-            self.fail(f"{path}.polyline", "expected a list of at least 2 points [x, y], "
-                      f"got {_kind(raw)}")
-            return []
-        closed = item.get("closed", False)
-        if not isinstance(closed, bool):
-            self.fail(f"{path}.closed", f"expected true or false, got {_kind(closed)}")
-            return []
-        pts = [self.point(p, f"{path}.polyline[{j}]") for j, p in enumerate(raw)]
-        if any(p is None for p in pts):
-            return []
-        if closed:
+        raw = item["polyline"]
+        pts = [(float(x), float(y)) for x, y in raw]
+        if item.get("closed", DEFAULT_CLOSED):
             pts = pts + [pts[0]]
         out = []
         for j in range(len(pts) - 1):
-            if pts[j] == pts[j + 1]:
+            if _zero_length(pts[j], pts[j + 1]):
                 where = f"{path}.polyline[{j + 1}]" if j + 1 < len(raw) else f"{path}.closed"
                 self.fail(where, "repeats the previous point (zero-length segment)")
             else:
@@ -691,10 +555,8 @@ class _Validator:
 
     def surface_velocity(self, item: dict, path: str, segs: list) -> Point:
         """A polyline's "velocity" [u, v]: its surface slides along it (a lid)."""
-        if "velocity" not in item:
-            return (0.0, 0.0)
-        v = self.point(item["velocity"], f"{path}.velocity")
-        if v is None or not any(v):
+        v = self.point(item, "velocity", f"{path}.", DEFAULT_VELOCITY)
+        if not any(v):
             return (0.0, 0.0)
         speed = math.hypot(*v)
         for a, b in segs:
@@ -720,11 +582,8 @@ class _Validator:
 
     def segment(self, item: list, path: str) -> list[tuple[Point, Point]]:
         """[[x1, y1], [x2, y2]] as a list of one segment (none after a problem)."""
-        a = self.point(item[0], f"{path}[0]")
-        b = self.point(item[1], f"{path}[1]")
-        if not (a and b):
-            return []
-        if a == b:
+        a, b = (tuple(map(float, p)) for p in item)
+        if _zero_length(a, b):
             self.fail(path, "segment has zero length")
             return []
         return [(a, b)]
@@ -734,6 +593,14 @@ class _Validator:
         """The cells of size h over the domain stay within the cell grid's bound."""
         lo, hi, h = domain.lo, domain.hi, res.h
         if not (lo and hi and h):
+            return
+        if res.dx and res.dx >= min(hi[0] - lo[0], hi[1] - lo[1]):
+            self.fail("resolution.spacing", f"must be smaller than the domain "
+                      f"({hi[0] - lo[0]:g} x {hi[1] - lo[1]:g} m), got {res.dx:g}")
+            return
+        if h > max(hi[0] - lo[0], hi[1] - lo[1]):
+            self.fail("resolution.smoothing_length", f"must not exceed the domain's size "
+                      f"({hi[0] - lo[0]:g} x {hi[1] - lo[1]:g} m), got {h:g}")
             return
         cells = ((hi[0] - lo[0]) / h) * ((hi[1] - lo[1]) / h)
         if cells > MAX_DOMAIN_CELLS:
@@ -795,13 +662,14 @@ class _Validator:
                           "particles there would be removed at once)")
 
     def check_particle_budget(self, regions: list[Region], dx: float) -> None:
-        n = int(sum(r.area() for r in regions) / dx**2)
+        n = sum(r.area() for r in regions) / dx / dx  # may be inf
         need = n * BYTES_PER_PARTICLE
         avail = _available_memory()
         if n > MAX_PARTICLES or (avail is not None and need > 0.8 * avail):
             have = f"{avail / 2**30:.1f} GiB available" if avail else "the 32-bit index limit"
-            self.fail("fluid_regions", f"would create about {n:,} particles "
-                      f"(~{need / 2**30:.1f} GiB), more than memory allows ({have}); "
+            count = f"{int(n):,}" if n < 1e15 else f"{n:.3g}"
+            self.fail("fluid_regions", f"would create about {count} particles "
+                      f"(~{need / 2**30:.3g} GiB), more than memory allows ({have}); "
                       "increase resolution.spacing")
 
     def check_regions_hold_points(self, regions: Sequence[Region], dx: float) -> None:
@@ -811,102 +679,51 @@ class _Validator:
                 self.fail(f"fluid_regions[{i}]", f"holds no lattice point at spacing {dx:g} m "
                           "(the region is smaller than the spacing)")
 
-    # -- primitives: a value at a JSON path, checked; None after a problem
-    def keys(self, obj: dict, allowed: Sequence[str], prefix: str) -> None:
-        for key in obj:
-            if key not in allowed:
-                near = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
-                hint = f' (did you mean "{near[0]}"?)' if near else (
-                    f" (expected one of: {', '.join(allowed)})")
-                self.fail(f"{prefix}{key}", f"unknown key{hint}")
+    # -- readers: a value the schema accepted, or the default when absent
+    def ok(self, path: str) -> bool:
+        """No problem found at, above or below the JSON path."""
+        return not any(_related(r, path) for r in self.refused)
 
-    def section(self, d: dict, key: str, allowed: Sequence[str]) -> dict | None:
-        """The required object d[key], its keys checked; None after a problem."""
-        if key not in d:
-            self.missing(key)
-            return None
-        if (obj := self.obj(d[key], key)) is None:
-            return None
-        self.keys(obj, allowed, f"{key}.")
-        return obj
-
-    def obj(self, value: Any, path: str) -> dict | None:
-        if not isinstance(value, dict):
-            self.fail(path, f"expected an object, got {_kind(value)}")
-            return None
-        return value
-
-    def number(self, value: Any, path: str, *, low: float | None = None,
-               strict: bool = True, high: float | None = None) -> float | None:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(path, f"expected a number, got {_kind(value)}")
-            return None
-        x = float(value)
-        if not math.isfinite(x):
-            self.fail(path, f"must be finite, got {value!r}")
-            return None
-        if low is not None and (x <= low if strict else x < low):
-            self.fail(path, f"must be {'>' if strict else '>='} {low:g}, got {value!r}")
-            return None
-        if high is not None and x > high:
-            self.fail(path, f"must be <= {high:g}, got {value!r}")
-            return None
-        return x
-
-    def number_at(self, obj: dict, key: str, prefix: str, default: float | None = None, *,
-                  required: bool = False, why: str = "", low: float | None = None,
-                  strict: bool = True, high: float | None = None) -> float | None:
-        """obj[key] as a number within the limits; if absent, the default (or, when
-        required, a problem)."""
-        if key not in obj:
-            if required:
-                self.missing(f"{prefix}{key}", why)
+    def value(self, obj: Any, key: str, prefix: str, default: Any = None) -> Any:
+        """obj[key]; the default when absent, None after a problem there."""
+        if not isinstance(obj, dict) or key not in obj:
             return default
-        return self.number(obj[key], f"{prefix}{key}", low=low, strict=strict, high=high)
+        return obj[key] if self.ok(prefix + key) else None
 
-    def point(self, value: Any, path: str) -> Point | None:
-        if (not isinstance(value, list) or len(value) != 2
-                or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in value)):
-            shown = json.dumps(value) if _jsonable(value) else repr(value)
-            self.fail(path, f"expected [x, y], got {shown}")
-            return None
-        if not all(math.isfinite(c) for c in value):
-            self.fail(path, f"must be finite, got {value!r}")
-            return None
-        return (float(value[0]), float(value[1]))
+    def number(self, obj: Any, key: str, prefix: str, default: float | None = None
+               ) -> float | None:
+        x = self.value(obj, key, prefix, default)
+        return None if x is None else float(x)
 
-    def point_at(self, obj: dict, key: str, prefix: str, default: Point | None = None, *,
-                 required: bool = False) -> Point | None:
-        """obj[key] as [x, y]; if absent, the default (or, when required, a problem)."""
-        if key not in obj:
-            if required:
-                self.missing(f"{prefix}{key}")
-            return default
-        return self.point(obj[key], f"{prefix}{key}")
+    def point(self, obj: Any, key: str, prefix: str, default: Point | None = None
+              ) -> Point | None:
+        """obj[key] as (x, y); prefix ending in "." or naming the object."""
+        prefix = prefix if prefix.endswith(".") or not prefix else prefix + "."
+        p = self.value(obj, key, prefix, default)
+        return None if p is None else (float(p[0]), float(p[1]))
 
-    def flags(self, value: Any, path: str) -> tuple[bool, bool]:
-        if not (isinstance(value, list) and len(value) == 2
-                and all(isinstance(c, bool) for c in value)):
-            shown = json.dumps(value) if _jsonable(value) else repr(value)
-            self.fail(path, f"expected [x, y] of true/false, got {shown}")
-            return (False, False)
-        return (value[0], value[1])
+    def section(self, d: dict, key: str) -> dict:
+        """The object d[key], or {} when absent or refused."""
+        value = d.get(key)
+        return value if isinstance(value, dict) else {}
 
-    def choice(self, obj: dict, key: str, prefix: str, options: Sequence[str]) -> Any:
-        """obj[key], by default the first option; a problem unless one of the options."""
-        value = obj.get(key, options[0])
-        if value not in options:
-            expected = " or ".join(f'"{o}"' for o in options)
-            self.fail(f"{prefix}{key}", f"expected {expected}, got {json.dumps(value)}")
-        return value
+    def items(self, d: dict, key: str) -> list:
+        """The list d[key], or [] when absent or refused."""
+        value = d.get(key)
+        return value if isinstance(value, list) else []
 
 
-def _jsonable(value: Any) -> bool:
-    try:
-        json.dumps(value)
-        return True
-    except (TypeError, ValueError):
-        return False
+def _zero_length(a: Point, b: Point) -> bool:
+    """A segment no longer than round-off on its coordinates (1e-12 of them, or of 1 m
+    near the origin): the walls' normals and lookups would divide by ~0."""
+    return math.hypot(b[0] - a[0], b[1] - a[1]) <= 1e-12 * max(1.0, *map(abs, a + b))
+
+
+def _related(a: str, b: str) -> bool:
+    """One JSON path is the other, or contains it."""
+    if len(a) > len(b):
+        a, b = b, a
+    return b == a or b.startswith(a + ".") or b.startswith(a + "[")
 
 
 def _available_memory() -> int | None:
