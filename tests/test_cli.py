@@ -109,6 +109,20 @@ def test_progress_goes_to_stderr_and_quiet_leaves_it_out(tmp_path, capsys):
     assert "steps               50" in out
 
 
+def test_runs_bar_counts_the_runs_below_their_lines(capsys):
+    from sphfluid.progress import Runs
+
+    with Runs(3) as runs:
+        runs.line("starting")
+        for k in range(3):
+            runs.done(f"run {k} finished")
+    err = capsys.readouterr().err.splitlines()
+    lines = [line for line in err if "%|" not in line]
+    assert lines == ["starting", "run 0 finished", "run 1 finished", "run 2 finished"]
+    assert err[0].startswith("  0%|")  # off a terminal: the bar at the start and the end
+    assert err[-1].startswith("100%|") and "| 3/3 runs [" in err[-1]
+
+
 @pytest.mark.parametrize("content,message", [
     ('{"format": "sphfluid-scene/1",\n "name": oops}', r"invalid JSON at line 2, column 10"),
     (json.dumps({**BASE_SCENE, "solvr": {}}), r'solvr: unknown key \(did you mean "solver"\?\)'),

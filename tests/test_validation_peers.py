@@ -76,6 +76,8 @@ def test_peer_rows_are_in_the_same_table_with_their_measurements(tmp_path, fake_
     err = capsys.readouterr().err
     assert "poiseuille    PySPH 1.0b2 TVF n=10   running" in err
     assert "    100 particles     100 steps  100.00 s  error 0.5" in err
+    runs = 2 * len(CASES["poiseuille"].resolutions["quick"])  # ours and the peer's
+    assert "100%|" in err and f"| {runs}/{runs} runs [" in err
 
 
 def test_peer_points_are_in_the_same_plot(tmp_path, fake_pysph):

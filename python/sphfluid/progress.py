@@ -92,3 +92,47 @@ class Progress:
     def close(self) -> None:
         """Draw the last state and end the line (again harmless)."""
         self._bar.close()
+
+
+class Runs:
+    """A progress bar over a count of runs (``sphfluid stress``, ``validate``) on
+    stderr, with each run's line printed above it::
+
+        splash    k = 1e+04  dt =  1e-03  caught blow-up ...  3.1 s
+         37%|███▋      | 15/40 runs [01:12<02:01]
+
+    ``done(line)`` prints a finished run's line and moves the bar on;
+    ``line(text)`` prints any other line. Off a terminal the bar is a line of
+    its own at most every LOG_INTERVAL s, between the runs' lines.
+    """
+
+    def __init__(self, total: int, what: str = "runs"):
+        from tqdm import tqdm
+
+        self._stream = sys.stderr
+        tty = bool(getattr(self._stream, "isatty", lambda: False)())
+        width = _columns(self._stream) if tty else LOG_WIDTH
+        self._bar = tqdm(
+            total=max(total, 0), file=self._stream if tty else _Lines(self._stream),
+            mininterval=TTY_INTERVAL if tty else LOG_INTERVAL, miniters=0,
+            dynamic_ncols=width is None, ncols=width, nrows=None if width is None else 24,
+            leave=True,
+            bar_format="{percentage:3.0f}%|{bar}| {n}/{total} " + what
+                       + " [{elapsed}<{remaining}]")
+
+    def line(self, text: str) -> None:
+        self._bar.write(text, file=self._stream)
+        self._stream.flush()
+
+    def done(self, text: str) -> None:
+        self.line(text)
+        self._bar.update(1)
+
+    def close(self) -> None:
+        self._bar.close()
+
+    def __enter__(self) -> Runs:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -319,8 +319,22 @@ class Tally:
             self.walls += o.through_walls
 
 
+_runs = None  # progress.Runs: the bar over the runs while main runs them
+
+
 def log(line: str) -> None:
-    print(line, file=sys.stderr, flush=True)
+    if _runs is not None:
+        _runs.line(line)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def log_run(line: str) -> None:
+    """A finished run's line: the bar moves on."""
+    if _runs is not None:
+        _runs.done(line)
+    else:
+        log(line)
 
 
 def main(args) -> int:
@@ -342,13 +356,25 @@ def main(args) -> int:
 
     start = time.perf_counter()
     tally = Tally()
-    sections = [sweep_section(kind, p, precision, args, tally) for kind in ("dam_break", "splash")]
-    violent = violent_runs(p, precision)
-    tally.add(violent)
-    bundled = None  # not run
-    if full and args.scenes.is_dir():
-        bundled = bundled_runs(args.scenes, p.max_wall, precision)
-        tally.add(bundled)
+    kinds = ("dam_break", "splash")
+    with_bundled = full and args.scenes.is_dir()
+    total = (len(kinds) * len(p.ks) * (len(p.dts) + 1)
+             + len(METHODS) * len(violent_scenes(p.tank_steps))
+             + (len(bundled_scenes(args.scenes)) if with_bundled else 0))
+    global _runs
+    from .progress import Runs
+
+    with Runs(total) as _runs:
+        try:
+            sections = [sweep_section(kind, p, precision, args, tally) for kind in kinds]
+            violent = violent_runs(p, precision)
+            tally.add(violent)
+            bundled = None  # not run
+            if with_bundled:
+                bundled = bundled_runs(args.scenes, p.max_wall, precision)
+                tally.add(bundled)
+        finally:
+            _runs = None
     report = report_text(args, p, precision, time.perf_counter() - start, tally, sections,
                          violent, bundled)
     print(report)
@@ -363,8 +389,8 @@ def main(args) -> int:
 
 def sweep_section(kind: str, p: Plan, precision: str, args, tally: Tally) -> str:
     """Sweep k x dt (fixed, then adaptive) on one tank: its report section and heat map."""
-    fixed = sweep(kind, p.ks, p.dts, p.spacing, p.duration, p.max_wall, log, precision)
-    auto = sweep(kind, p.ks, [None], p.spacing, p.duration, p.max_wall, log, precision)
+    fixed = sweep(kind, p.ks, p.dts, p.spacing, p.duration, p.max_wall, log_run, precision)
+    auto = sweep(kind, p.ks, [None], p.spacing, p.duration, p.max_wall, log_run, precision)
     tally.add(fixed)
     tally.add(auto)
     png = args.out / f"stability_{kind}{'' if precision == 'double' else f'_{precision}'}.png"
@@ -396,7 +422,7 @@ def violent_runs(p: Plan, precision: str) -> dict[tuple[str, str], Outcome]:
             d["solver"]["method"] = method
             o = run_violent(name, with_precision(d, precision), p.max_wall * 4)
             violent[(method, name)] = o
-            log(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
+            log_run(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
                 f"{o.wall:.1f} s")
     return violent
 
@@ -408,7 +434,7 @@ def bundled_runs(folder: Path, max_wall: float,
     for (name, how), d in bundled_scenes(folder).items():
         o = run_one(with_precision(d, precision), max_wall)
         bundled[(name, how)] = o
-        log(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
+        log_run(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
             f"{o.wall:.1f} s")
     return bundled
 

@@ -58,11 +58,12 @@ def to_result(r: dict, label: str) -> Result:
 
 
 def run_peers(driver: ModuleType, version: str, names: list[str], mode: str, threads: int,
-              timeout: float, log) -> list[Result]:
+              timeout: float, log, done=None) -> list[Result]:
     """Every scheme PySPH has for each named case, at the driver's resolutions for
-    `mode`, one subprocess each; a line to `log` as each starts and ends, and one
-    every PROGRESS_EVERY s in between. A run that times out or fails is a Result
-    with its failure, never an exception."""
+    `mode`, one subprocess each; a line to `log` as each starts, one every
+    PROGRESS_EVERY s in between, and one to `done` (by default `log`) as it
+    ends. A run that times out or fails is a Result with its failure, never an
+    exception."""
     results = []
     for name in names:
         if not driver.schemes(name):
@@ -71,12 +72,12 @@ def run_peers(driver: ModuleType, version: str, names: list[str], mode: str, thr
         for scheme in driver.schemes(name):
             for n in driver.resolutions(name, mode):
                 results.append(_run_one(driver, version, name, scheme, n, threads, timeout,
-                                        log))
+                                        log, done or log))
     return results
 
 
 def _run_one(driver: ModuleType, version: str, name: str, scheme: str, n: int, threads: int,
-             timeout: float, log) -> Result:
+             timeout: float, log, done) -> Result:
     tag = f"{name:13s} {driver.label(scheme, version)} n={n:<4d}"
     log(f"{tag} running ({threads} threads, timeout {timeout:g} s)")
     shown = [time.monotonic()]
@@ -91,7 +92,7 @@ def _run_one(driver: ModuleType, version: str, name: str, scheme: str, n: int, t
     outcome = (f"error {result.error:.4g}" if result.ok else f"FAILED: {result.failure}")
     busy = (f" (busy: its threads ran {result.cpu_share:.0%} of the time)"
             if result.cpu_share < BUSY_SHARE else "")
-    log(f"{tag} {result.particles:7,d} particles {result.steps:7,d} steps "
+    done(f"{tag} {result.particles:7,d} particles {result.steps:7,d} steps "
         f"{result.wall:7.2f} s  {outcome}{busy}")
     return result
 

@@ -430,9 +430,18 @@ def main(args) -> int:
         log(f"peers: PySPH {version} on {', '.join(peer_cases) or 'none of these cases'}")
 
     start = time.perf_counter()
-    results = run_suite(names, mode, methods, args.threads, log)
+    total = sum(len(CASES[name].resolutions[mode]) for name in names for method in methods
+                if CASES[name].applies(method))
     if args.peers:
-        results += peers.run_peers(driver, version, names, mode, peer_threads, timeout, log)
+        total += sum(len(driver.schemes(name)) * len(driver.resolutions(name, mode))
+                     for name in peer_cases)
+    from ..progress import Runs
+
+    with Runs(total) as runs:
+        results = run_suite(names, mode, methods, args.threads, runs.done)
+        if args.peers:
+            results += peers.run_peers(driver, version, names, mode, peer_threads, timeout,
+                                       runs.line, done=runs.done)
     seconds = time.perf_counter() - start
     command = " ".join(["sphfluid validate", f"--{mode}"]
                        + [f"--case {n}" for n in (args.case or [])]
