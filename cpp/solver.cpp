@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace sphfluid {
 
@@ -120,8 +122,11 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   const Index n = size(), k = static_cast<Index>(positions.size());
   require(std::int64_t(n) + k < INT32_MAX, "too many particles");
   ctx_.particles_changed();
-  Id next = 0;
-  for (Index i = 0; i < n; ++i) next = std::max(next, ps.id[i] + 1);
+  Id top = -1;  // the largest id in use
+  for (Index i = 0; i < n; ++i) top = std::max(top, ps.id[i]);
+  require(top < std::numeric_limits<Id>::max() - Id(k),
+          "no fresh ids left: the largest id in use is " + std::to_string(top));
+  const Id next = top + 1;
   ps.resize(n + k);
   for (Index i = 0; i < k; ++i) {
     ps.x[n + i] = positions[i];

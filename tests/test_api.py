@@ -283,3 +283,43 @@ def test_a_second_thread_changing_a_simulation_is_refused(scene_dict):
     assert (sim.time, sim.step_count) == (alone.time, alone.step_count)
     np.testing.assert_array_equal(sim.positions, alone.positions)
     sim.step()  # free again
+
+
+def test_fresh_ids_that_would_overflow_are_refused(scene_dict):
+    sim = sphfluid.Simulation(scene_dict)
+    n = sim.n_particles
+    top = np.iinfo(np.int64).max
+    sim.set_state(sim.positions, sim.velocities, ids=np.arange(n, dtype=np.int64) + (top - n + 1))
+    with pytest.raises(ValueError, match=r"no fresh ids left: the largest id in use is "
+                                         + str(top)):
+        sim.add_particles([[0.7, 0.7]])
+    assert sim.n_particles == n  # nothing added
+
+
+def test_a_wall_far_longer_than_the_domain_keeps_its_lookup_grid_small(scene_dict):
+    # The lookup grid was coarsened by area only: a wall 1e10 m long and 2 h
+    # high asked for ~1e9 cells (24 GB). Now it stays within its cell bound.
+    import resource
+
+    sim = sphfluid.Simulation(scene_dict)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB
+    sim.set_walls([((-1e10, -0.05), (1e10, -0.05))])
+    sim.step(2)
+    grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    assert grown < 500_000, f"{grown / 1e6:.1f} GB more"
+    assert len(sim.walls) == 1
+    sim.set_walls([((0.0, -0.05), (9e307, -0.05))])  # its area's cell count overflows
+    sim.step(2)
+    with pytest.raises(ValueError, match="longer than a double can hold"):
+        sim.set_walls([((-9e307, -0.05), (9e307, -0.05))])
+
+
+def test_a_particle_flying_at_1e300_meets_the_walls_without_undefined_casts(scene_dict):
+    # The path's cells were converted to ints before clamping (UBSan: a signed
+    # overflow); the sanitizer job runs this test.
+    sim = sphfluid.Simulation(scene_dict)
+    vel = np.array(sim.velocities)
+    vel[0] = (1e300, -1e300)
+    sim.set_state(sim.positions, vel)
+    with pytest.raises(sphfluid.InstabilityError):
+        sim.step(3)

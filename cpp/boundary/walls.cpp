@@ -17,7 +17,9 @@ constexpr int kMaxBounces = 8;
 Segment make_segment(const Vec2& a, const Vec2& b) {
   if (!a.allFinite() || !b.allFinite()) throw std::invalid_argument("wall end point is not finite");
   const Vec2 d = b - a;
-  const Real len = d.norm();
+  const Real len = std::hypot(d.x(), d.y());  // no overflow of the square
+  if (!d.allFinite() || !std::isfinite(len))
+    throw std::invalid_argument("wall segment is longer than a double can hold");
   if (!(len > 0)) throw std::invalid_argument("wall segment has zero length");
   Segment s;
   s.a = a;
@@ -53,17 +55,33 @@ WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(se
   const Index ns = static_cast<Index>(segments_.size());
   if (ns == 0) return;
 
-  const Real tol2 = (1e-9 * h) * (1e-9 * h);
-  auto same = [&](const Vec2& p, const Vec2& q) { return (p - q).squaredNorm() <= tol2; };
+  // Shared end points: each end's partner is the lowest-numbered other segment
+  // with an end within 1e-9 h of it. The ends sorted by x, each compared with
+  // those that follow within the tolerance in x: O(n log n) for any drawing.
+  const Real tol = 1e-9 * h;
+  struct End {
+    Real x, y;
+    Index seg;
+    bool b;
+  };
+  std::vector<End> ends;
+  ends.reserve(2 * static_cast<std::size_t>(ns));
   for (Index i = 0; i < ns; ++i) {
-    for (Index j = 0; j < ns; ++j) {
-      if (i == j) continue;
-      Segment& s = segments_[i];
-      const Segment& o = segments_[j];
-      if (s.shared_a < 0 && (same(s.a, o.a) || same(s.a, o.b))) s.shared_a = j;
-      if (s.shared_b < 0 && (same(s.b, o.a) || same(s.b, o.b))) s.shared_b = j;
-    }
+    ends.push_back({segments_[i].a.x(), segments_[i].a.y(), i, false});
+    ends.push_back({segments_[i].b.x(), segments_[i].b.y(), i, true});
   }
+  std::sort(ends.begin(), ends.end(), [](const End& p, const End& q) { return p.x < q.x; });
+  auto partner = [&](const End& e, Index other) {
+    Index& slot = e.b ? segments_[e.seg].shared_b : segments_[e.seg].shared_a;
+    if (slot < 0 || other < slot) slot = other;
+  };
+  for (std::size_t k = 0; k < ends.size(); ++k)
+    for (std::size_t m = k + 1; m < ends.size() && ends[m].x - ends[k].x <= tol; ++m) {
+      const End &p = ends[k], &q = ends[m];
+      if (p.seg == q.seg || Vec2(p.x - q.x, p.y - q.y).squaredNorm() > tol * tol) continue;
+      partner(p, q.seg);
+      partner(q, p.seg);
+    }
 
   Vec2 lo = segments_[0].a, hi = lo;
   for (const Segment& s : segments_) {
@@ -72,14 +90,23 @@ WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(se
   }
   lo.array() -= h;
   hi.array() += h;
-  // Cells of size h, coarsened if that would make more than ~4M cells.
-  Real cell = h;
-  const Real area_cells = (hi.x() - lo.x()) * (hi.y() - lo.y()) / (cell * cell);
-  if (area_cells > 4.0e6) cell *= std::sqrt(area_cells / 4.0e6);
+  const Vec2 extent = hi - lo;
+  if (!extent.allFinite()) throw std::invalid_argument("walls span more than a double can hold");
+  // Cells of size h, coarsened (by area, then doubled) until there are at most
+  // kMaxCells: the grid's memory is bounded whatever the walls' extent, also
+  // for a long thin one whose area is small.
+  constexpr Real kMaxCells = 4.0e6;
+  auto cells = [&](Real c) {
+    return (std::floor(extent.x() / c) + 1) * (std::floor(extent.y() / c) + 1);
+  };
+  Real cell = h;  // the area's cells, as a product of roots: no overflow
+  const Real root_cells = std::sqrt(extent.x()) * std::sqrt(extent.y()) / cell;
+  if (root_cells * root_cells > kMaxCells) cell *= root_cells / std::sqrt(kMaxCells);
+  while (cells(cell) > kMaxCells) cell *= 2;
   inv_cell_ = 1 / cell;
   origin_ = lo;
-  nx_ = static_cast<Index>(std::floor((hi.x() - lo.x()) * inv_cell_)) + 1;
-  ny_ = static_cast<Index>(std::floor((hi.y() - lo.y()) * inv_cell_)) + 1;
+  nx_ = static_cast<Index>(std::floor(extent.x() * inv_cell_)) + 1;
+  ny_ = static_cast<Index>(std::floor(extent.y() * inv_cell_)) + 1;
 
   // A segment goes into every cell whose centre lies within h + half a cell
   // diagonal of it: then any point of the cell within h of it finds it.
@@ -136,11 +163,13 @@ Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const {
   const Vec2 lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
   const Real fx0 = (lo.x() - origin_.x()) * inv_cell_, fy0 = (lo.y() - origin_.y()) * inv_cell_;
   const Real fx1 = (hi.x() - origin_.x()) * inv_cell_, fy1 = (hi.y() - origin_.y()) * inv_cell_;
-  if (fx1 < 0 || fy1 < 0 || fx0 >= nx_ || fy0 >= ny_) return -1;  // far from every wall
-  const Index x0 = std::max<Index>(0, static_cast<Index>(fx0));
-  const Index y0 = std::max<Index>(0, static_cast<Index>(fy0));
-  const Index x1 = std::min<Index>(nx_ - 1, static_cast<Index>(fx1));
-  const Index y1 = std::min<Index>(ny_ - 1, static_cast<Index>(fy1));
+  // Far from every wall (or not finite: then no comparison holds).
+  if (!(fx1 >= 0 && fy1 >= 0 && fx0 < nx_ && fy0 < ny_)) return -1;
+  // Clamped before the conversion: a path of 1e300 m has no Index of its own.
+  const Index x0 = static_cast<Index>(std::max<Real>(0, fx0));
+  const Index y0 = static_cast<Index>(std::max<Real>(0, fy0));
+  const Index x1 = static_cast<Index>(std::min<Real>(nx_ - 1, fx1));
+  const Index y1 = static_cast<Index>(std::min<Real>(ny_ - 1, fy1));
   if (x0 == x1 && y0 == y1) {  // the common case: a short path inside one cell
     const Index c = y0 * nx_ + x0;
     for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) consider(cell_items_[q]);
