@@ -72,6 +72,8 @@ CASES = [
     (setp(["duration"], float("inf")), r"duration: must be finite"),
     (setp(["resolution", "spacing"], 1e-6), r"domain: spans .* cells|fluid_regions: would create about"),
     (setp(["fluid_regions"], {}), r"fluid_regions: expected a list, got an object"),
+    (setp(["walls", 0], [[0, 0], [1e9, 0]]), r"walls\[0\]: reaches \[1e\+09, 0\], farther from "
+     r"the domain"),
     # null where a section is required: refused like any other wrong type
     (setp(["format"], None), r'format: expected "sphfluid-scene/1", got null'),
     (setp(["domain"], None), r"domain: expected an object, got null"),
@@ -283,3 +285,52 @@ def test_malformed_values_give_messages_not_tracebacks():
     for edit, message in cases:
         with pytest.raises(SceneError, match=message):
             sphfluid.load_scene(broken(edit))
+
+
+def _first_crossing_by_brute_force(pts):
+    """Every pair of non-neighbouring edges, in order: the first that touch."""
+    def orient(a, b, c):
+        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        return (v > 0) - (v < 0)
+
+    def on(a, b, c):
+        return (min(a[0], b[0]) <= c[0] <= max(a[0], b[0])
+                and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]))
+
+    n = len(pts)
+    edges = [(pts[i], pts[(i + 1) % n]) for i in range(n)]
+    for i in range(n):
+        for j in range(i + 2, n):
+            if i == 0 and j == n - 1:
+                continue
+            (p1, p2), (q1, q2) = edges[i], edges[j]
+            o = orient(p1, p2, q1), orient(p1, p2, q2), orient(q1, q2, p1), orient(q1, q2, p2)
+            if ((o[0] != o[1] and o[2] != o[3]) or (o[0] == 0 and on(p1, p2, q1))
+                    or (o[1] == 0 and on(p1, p2, q2)) or (o[2] == 0 and on(q1, q2, p1))
+                    or (o[3] == 0 and on(q1, q2, p2))):
+                return (i, j)
+    return None
+
+
+def test_the_polygon_check_finds_the_first_crossing_a_brute_force_finds():
+    # Vertices on a small integer grid: collinear edges, touching vertices and
+    # repeated points are common, the cases a sweep gets wrong.
+    from sphfluid.scene import _self_intersection
+
+    rng = np.random.default_rng(7)
+    for _ in range(2000):
+        pts = [tuple(map(float, p)) for p in rng.integers(0, 5, size=(rng.integers(3, 12), 2))]
+        assert _self_intersection(pts) == _first_crossing_by_brute_force(pts), pts
+
+
+def test_a_polygon_of_many_vertices_loads(scene_dict):
+    # 20,000 vertices on a wavy closed curve, and the same with one edge crossing.
+    t = np.linspace(0, 2 * np.pi, 20_000, endpoint=False)
+    r = 0.3 * (1 + 0.1 * np.sin(40 * t))
+    pts = np.stack([0.5 + r * np.cos(t), 0.5 + r * np.sin(t)], axis=1).tolist()
+    scene_dict["fluid_regions"] = [{"shape": "polygon", "points": pts}]
+    assert len(sphfluid.load_scene(scene_dict).lattice_points()[0]) > 0
+    pts[100], pts[101] = pts[101], pts[100]
+    with pytest.raises(SceneError, match=r"fluid_regions\[0\].points: polygon is not simple: "
+                                         r"edge 99 crosses edge 101"):
+        sphfluid.load_scene(scene_dict)

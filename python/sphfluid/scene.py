@@ -403,6 +403,7 @@ class _Validator:
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
         self.check_sliding_walls(solver)
         self.check_regions_inside(domain, regions)
+        self.check_walls_near(domain, walls)
         if res.dx and regions and not self.problems:
             self.check_particle_budget(regions, res.dx)
         self.raise_problems()
@@ -523,6 +524,7 @@ class _Validator:
     def walls(self, raw: list) -> list[tuple[Point, Point]]:
         self._velocities: list[Point] = []  # one per segment
         self._moving_wall = ""  # the path of the first wall whose surface moves
+        self._wall_paths: list[str] = []  # one per segment
         out: list[tuple[Point, Point]] = []
         for i, item in enumerate(raw):
             path = f"walls[{i}]"
@@ -536,6 +538,7 @@ class _Validator:
                 v = (0.0, 0.0)
             out += segs
             self._velocities += [v] * len(segs)
+            self._wall_paths += [path] * len(segs)
         return out
 
     def polyline(self, item: dict, path: str) -> list[tuple[Point, Point]]:
@@ -661,6 +664,24 @@ class _Validator:
                 self.fail(f"fluid_regions[{i}]", "reaches outside the domain (its "
                           "particles there would be removed at once)")
 
+    def check_walls_near(self, domain: _Domain, walls: list) -> None:
+        """Every wall's ends within the domain grown by its own size on each side:
+        walls farther out meet no particle (those leaving the domain are removed)
+        and only cost the walls' lookup grid."""
+        lo, hi = domain.lo, domain.hi
+        if not (lo and hi):
+            return
+        w, h = hi[0] - lo[0], hi[1] - lo[1]
+        reported = set()
+        for (a, b), path in zip(walls, self._wall_paths):
+            for x, y in (a, b):
+                if not (lo[0] - w <= x <= hi[0] + w and lo[1] - h <= y <= hi[1] + h) \
+                        and path not in reported:
+                    reported.add(path)
+                    self.fail(path, f"reaches [{x:g}, {y:g}], farther from the domain "
+                              f"(min {list(lo)}, max {list(hi)}) than the domain's own "
+                              "size: no particle can get there")
+
     def check_particle_budget(self, regions: list[Region], dx: float) -> None:
         n = sum(r.area() for r in regions) / dx / dx  # may be inf
         need = n * BYTES_PER_PARTICLE
@@ -753,33 +774,61 @@ def _edges(pts: Sequence[Point]) -> Iterator[tuple[Point, Point]]:
         yield pts[i], pts[(i + 1) % len(pts)]
 
 
-def _segments_cross(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
-    def orient(a, b, c):
-        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        return (v > 0) - (v < 0)
+def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """The side of c from the line a -> b: 1 left, -1 right, 0 on it (rows of (k, 2))."""
+    return np.sign((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                   - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
-    def on_segment(a, b, c):
-        return (min(a[0], b[0]) <= c[0] <= max(a[0], b[0])
-                and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]))
 
-    o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
-    o3, o4 = orient(q1, q2, p1), orient(q1, q2, p2)
-    if o1 != o2 and o3 != o4:
-        return True
-    return ((o1 == 0 and on_segment(p1, p2, q1)) or (o2 == 0 and on_segment(p1, p2, q2))
-            or (o3 == 0 and on_segment(q1, q2, p1)) or (o4 == 0 and on_segment(q1, q2, p2)))
+def _on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """c, collinear with a -> b, lies within its bounding box."""
+    return np.all((np.minimum(a, b) <= c) & (c <= np.maximum(a, b)), axis=1)
+
+
+def _segments_cross(p1, p2, q1, q2) -> np.ndarray:
+    """Segments p1 -> p2 and q1 -> q2 (rows) touch or cross."""
+    o1, o2 = _orient(p1, p2, q1), _orient(p1, p2, q2)
+    o3, o4 = _orient(q1, q2, p1), _orient(q1, q2, p2)
+    return (((o1 != o2) & (o3 != o4))
+            | ((o1 == 0) & _on_segment(p1, p2, q1)) | ((o2 == 0) & _on_segment(p1, p2, q2))
+            | ((o3 == 0) & _on_segment(q1, q2, p1)) | ((o4 == 0) & _on_segment(q1, q2, p2)))
+
+
+_PAIRS_PER_BLOCK = 1 << 20  # candidate edge pairs tested at once
 
 
 def _self_intersection(pts: Sequence[Point]) -> tuple[int, int] | None:
-    edges = list(_edges(pts))
-    n = len(edges)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if j == i + 1 or (i == 0 and j == n - 1):
-                continue  # neighbouring edges share a vertex
-            if _segments_cross(*edges[i], *edges[j]):
-                return i, j
-    return None
+    """The first pair of edges (i < j, in order) of the closed polygon that touch or
+    cross, neighbours aside; None for a simple polygon. Sweep and prune: the edges
+    sorted by their left end, each tested against those that start before it ends
+    (in x), and whose y ranges overlap; about n log n for a drawn shape."""
+    p = np.asarray(pts, dtype=float)
+    n = len(p)
+    a, b = p, np.roll(p, -1, axis=0)  # edge i: a[i] -> b[i]
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    order = np.argsort(lo[:, 0], kind="stable")
+    end = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+    count = np.maximum(end - np.arange(n) - 1, 0)
+    first = None
+    done = 0
+    while done < n:  # blocks of sorted edges with about _PAIRS_PER_BLOCK candidates
+        stop = int(np.searchsorted(np.cumsum(count[done:]), _PAIRS_PER_BLOCK)) + done + 1
+        stop = min(max(stop, done + 1), n)
+        k = np.repeat(np.arange(done, stop), count[done:stop])
+        offset = np.arange(len(k)) - np.repeat(np.cumsum(count[done:stop]) - count[done:stop],
+                                               count[done:stop])
+        e, f = order[k], order[k + 1 + offset]
+        e, f = np.minimum(e, f), np.maximum(e, f)
+        keep = ((lo[e, 1] <= hi[f, 1]) & (lo[f, 1] <= hi[e, 1])
+                & (f != e + 1) & ~((e == 0) & (f == n - 1)))
+        e, f = e[keep], f[keep]
+        hit = _segments_cross(a[e], b[e], a[f], b[f])
+        if hit.any():
+            i = np.lexsort((f[hit], e[hit]))[0]
+            pair = (int(e[hit][i]), int(f[hit][i]))
+            first = pair if first is None or pair < first else first
+        done = stop
+    return first
 
 
 def _inside_polygon(x: np.ndarray, y: np.ndarray, pts: Sequence[Point]) -> np.ndarray:

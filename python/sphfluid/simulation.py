@@ -123,10 +123,28 @@ def threads_argument(value) -> int | None:
 
 
 def _finite(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {value!r}")
     x = float(value)
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return x
+
+
+def _array(value, name: str, shape: tuple) -> np.ndarray:
+    """value as a float array of ``shape`` (-1: any length), or a clear error."""
+    want = "(" + ", ".join("n" if k < 0 else str(k) for k in shape) + ")"
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is not None and arr.size == 0 and len(shape) > 1:
+        arr = arr.reshape((0,) + shape[1:])  # [] is no point, no wall
+    if arr is None or arr.ndim != len(shape) or any(
+            k >= 0 and k != m for k, m in zip(shape, arr.shape)):
+        shown = repr(value) if len(repr(value)) < 80 else repr(value)[:77] + "..."
+        raise ValueError(f"{name}: expected an array of shape {want} of numbers, got {shown}")
+    return arr
 
 
 def _one_thread(method):
@@ -324,16 +342,18 @@ class Simulation:
                 raise ValueError(f"ids must be >= 0, got {int(ids.min())}")
             if np.unique(ids).size != ids.size:
                 raise ValueError("ids must be distinct: some repeat")
-        self._solver.set_state(np.asarray(positions, float), np.asarray(velocities, float), ids)
+        self._solver.set_state(_array(positions, "positions", (-1, 2)),
+                               _array(velocities, "velocities", (-1, 2)), ids)
 
     # -- editing (the viewer's terrain tools use these)
     @_one_thread
     def add_particles(self, positions, velocities=None) -> None:
         """Append particles (n, 2) with fresh ids; any outside the domain are dropped
         (and counted as removed)."""
-        pos = np.asarray(positions, float).reshape(-1, 2)
-        vel = np.zeros_like(pos) if velocities is None else np.asarray(velocities, float)
-        self._solver.add_particles(pos, vel.reshape(-1, 2))
+        pos = _array(positions, "positions", (-1, 2))
+        vel = np.zeros_like(pos) if velocities is None else _array(velocities, "velocities",
+                                                                  (-1, 2))
+        self._solver.add_particles(pos, vel)
 
     @_one_thread
     def set_walls(self, walls) -> None:
@@ -342,7 +362,7 @@ class Simulation:
         Takes effect at once; the scene (what ``reset`` and saving use) follows.
         The new walls' surfaces are at rest (a sliding lid's velocity is dropped).
         """
-        arr = np.asarray(walls, float).reshape(-1, 2, 2)
+        arr = _array(walls, "walls", (-1, 2, 2))
         self._solver.set_walls(arr)  # validates: raises ValueError naming walls[i]
         segs = tuple((tuple(map(float, a)), tuple(map(float, b))) for a, b in arr)
         self.scene = dataclasses.replace(self.scene, walls=segs, wall_velocities=())
@@ -350,12 +370,15 @@ class Simulation:
     @_one_thread
     def add_wall(self, a, b) -> None:
         """Add the wall segment a -> b (points [x, y], m)."""
-        self.set_walls([*self.scene.walls, (tuple(a), tuple(b))])
+        a, b = (tuple(_array(p, name, (2,))) for p, name in ((a, "a"), (b, "b")))
+        self.set_walls([*self.scene.walls, (a, b)])
 
     @_one_thread
     def remove_wall(self, index: int) -> None:
         """Remove wall segment number ``index`` (as in ``walls``)."""
         walls = list(self.scene.walls)
+        if isinstance(index, bool) or not isinstance(index, numbers.Integral):
+            raise TypeError(f"index must be an integer, got {index!r}")
         if not -len(walls) <= index < len(walls):
             raise IndexError(f"no wall {index}: there are {len(walls)}")
         del walls[index]
