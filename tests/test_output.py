@@ -385,3 +385,36 @@ def test_sigterm_stops_a_run_with_a_message_and_whole_frames(tmp_path):
     for f in frames:
         with np.load(f) as d:
             assert d["positions"].shape == (1435, 2)
+
+
+def test_a_full_disk_is_a_message_and_exit_2_with_the_frames_before_it_whole(
+        tmp_path, monkeypatch, capsys):
+    """No space left while writing the fourth frame: exit 2 with the reason and
+    the file, the three frames before it whole, no temporary file left."""
+    import errno
+
+    from sphfluid.cli import main
+
+    real = np.savez
+    calls = []
+
+    def savez(f, **arrays):
+        calls.append(f)
+        if len(calls) == 4:
+            real(f, **arrays)  # part of the file is written, then the disk is full
+            raise OSError(errno.ENOSPC, "No space left on device", str(f))
+        real(f, **arrays)
+
+    monkeypatch.setattr(output.np, "savez", savez)
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    out = tmp_path / "out"
+    code = main(["run", str(scene), "--out", str(out), "--every", "0.01", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "error: No space left on device: " in err and "Traceback" not in err
+    frames = sorted(out.glob("frame_*.npz"))
+    assert len(frames) == 3 and not list(out.glob(".*tmp*"))
+    for f in frames:
+        with np.load(f) as d:
+            assert len(d["positions"]) == len(d["ids"]) > 0

@@ -279,6 +279,8 @@ def test_malformed_values_give_messages_not_tracebacks():
         (setp(["name"], [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]),
          r"nested more than 64 levels deep"),
         (setp(["solver"], None), r"solver: expected an object, got null"),
+        (lambda d: d.update(name=json.loads("[" * 100 + "]" * 100), gravity={}),
+         r"^name(\[0\])+: nested more than 64 levels deep$"),
         (setp(["walls", 0], [[0, 0], [1e-320, 0]]), r"walls\[0\]: segment has zero length"),
         (setp(["fluid_regions", 0], {}), r'fluid_regions\[0\].shape: required key is missing'),
     ]

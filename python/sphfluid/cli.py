@@ -1,4 +1,5 @@
-"""The `sphfluid` command: run | view | record | check | schema | bench | stress | validate.
+"""The `sphfluid` command: run | view | record | check | schema | bench | stress | validate |
+fuzz.
 
 Every user mistake ends in one clear message on stderr and a non-zero exit
 code: 2 for bad input (scene, arguments, files), 3 for a numerical blow-up.
@@ -43,7 +44,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,check,schema,bench,stress,validate}")
+                           metavar="{run,view,record,check,schema,bench,stress,validate,fuzz}")
     _add_run(sub)
     _add_view(sub)
     _add_record(sub)
@@ -52,7 +53,29 @@ def _parser() -> argparse.ArgumentParser:
     _add_bench(sub)
     _add_stress(sub)
     _add_validate(sub)
+    _add_fuzz(sub)
     return p
+
+
+def _add_fuzz(sub) -> None:
+    f = sub.add_parser("fuzz", help="broken scenes and bad API calls: no traceback, hang or crash",
+                       description="Run CASES seeded cases (docs/reliability.md): mutations "
+                                   "of the scenes in --scenes (wrong types, NaN, infinities, "
+                                   "huge and tiny numbers, nulls, nesting, degenerate walls "
+                                   "and regions), loaded, checked and stepped; and bad "
+                                   "arguments to a Simulation's methods. Each in a worker "
+                                   "process under a memory limit; prints a table of "
+                                   "outcomes and the bad cases (traceback, hang, crash, "
+                                   "memory). Exit code 1 if any case is bad.")
+    f.add_argument("--cases", type=_count, default=1000, help="cases to run (default 1000)")
+    f.add_argument("--seed", type=int, default=0, help="seed of the cases (default 0)")
+    f.add_argument("--scenes", type=Path, default=Path("scenes"),
+                   help="the scenes the scene cases mutate (default: ./scenes)")
+    f.add_argument("--timeout", type=float, default=60.0,
+                   help="seconds a case may take before it counts as a hang (default 60)")
+    f.add_argument("--case", metavar="KIND:INDEX",
+                   help="run one case here and show it (scene:12 or api:7)")
+    f.add_argument("--verbose", action="store_true", help="a line for every case")
 
 
 def _add_run(sub) -> None:
@@ -318,6 +341,10 @@ def _main(args, argv: list[str] | None) -> int:
             from .validation.runner import main as validate_main
 
             return validate_main(args)
+        if args.command == "fuzz":
+            from .fuzz import main as fuzz_main
+
+            return fuzz_main(args)
     except SceneError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -330,6 +357,11 @@ def _main(args, argv: list[str] | None) -> int:
     except _Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)
         return 143
+    except OSError as e:  # a full disk, a folder that cannot be written, ...
+        where = f": {e.filename}" if e.filename else ""
+        print(f"error: {e.strerror or e}{where} (the outputs written before it are complete; "
+              "an output being written is left out)", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return 0
 
 

@@ -128,6 +128,10 @@ class Runs:
         self.line(text)
         self._bar.update(1)
 
+    def advance(self) -> None:
+        """A finished run with no line of its own."""
+        self._bar.update(1)
+
     def close(self) -> None:
         self._bar.close()
 

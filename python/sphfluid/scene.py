@@ -376,6 +376,8 @@ class _Validator:
 
     # -- the scene
     def scene(self) -> Scene:
+        if any(msg.endswith(_schema.TOO_DEEP) for msg in self.problems):
+            self.raise_problems()  # the schema was not checked: nothing else is read
         d = self.data
         name = self.value(d, "name", "", "")
         gravity = self.point(d, "gravity", "", DEFAULT_GRAVITY)

@@ -34,6 +34,7 @@ _TYPE_WORDS = {"number": "a number", "integer": "an integer", "string": "a strin
                "boolean": "true or false", "object": "an object", "array": "a list",
                "null": "null"}
 _MAX_DEPTH = 64  # nesting of JSON arrays and objects a scene may have
+TOO_DEEP = f"nested more than {_MAX_DEPTH} levels deep"
 
 
 @functools.lru_cache(maxsize=None)
@@ -93,8 +94,8 @@ def problems(data: Any) -> list[tuple[str, str]]:
     """(JSON path, message) for each place ``data`` breaks the schema or holds a
     number that is not finite, one per path, in the schema's order."""
     deep = _too_deep(data)
-    if deep is not None:
-        return [(json_path(deep), f"nested more than {_MAX_DEPTH} levels deep")]
+    if deep is not None:  # not checked further: nothing in it is to be trusted
+        return [(json_path(deep), TOO_DEEP)]
     out: dict[str, str] = {}
     for path, message in _non_finite(data):
         out.setdefault(json_path(path), message)
