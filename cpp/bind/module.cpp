@@ -32,6 +32,11 @@ PYBIND11_MODULE(_core, m) {
   info["openmp"] = py::none();
 #endif
   info["real"] = sizeof(sphfluid::Real) == 8 ? "double" : "float";
+#ifdef SPHFLUID_SANITIZE
+  info["sanitize"] = SPHFLUID_SANITIZE;  // the checking build's -fsanitize= list
+#else
+  info["sanitize"] = "";
+#endif
   m.attr("build_info") = info;
   bind_params(m);
   bind_solver(m);

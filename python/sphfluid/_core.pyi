@@ -20,6 +20,7 @@ class _BuildInfo(TypedDict):
     march_native: bool  # built with -march=native
     openmp: int | None  # the _OPENMP date, None without OpenMP
     real: Literal["double", "float"]  # the core's Real
+    sanitize: str  # the -fsanitize= list of a checking build, "" otherwise
 
 build_info: _BuildInfo
 
