@@ -150,3 +150,19 @@ def test_suite_with_peers_and_no_benchmarks_folder_exits_2_before_running(
     monkeypatch.setenv(BENCHMARKS_ENV, str(tmp_path))  # a folder without the harness
     assert main(["bench", "--suite", "--peers"]) == 2
     assert "peers.py is missing" in capsys.readouterr().err
+
+
+def test_the_suite_shows_a_bar_over_its_runs(monkeypatch, capsys):
+    from sphfluid.cli import main
+
+    row = {"particles": 1000, "steps": 100, "wall": 1.0, "steps_per_s": 100.0,
+           "ns_per_ps": 1e4, "bytes_per_particle": 190.0, "error": 0.1}
+    monkeypatch.setattr(bench_suite, "run_child", lambda *a, **k: dict(row))
+    monkeypatch.setattr(bench_suite, "time_to_solution", lambda *a, **k: dict(row))
+    monkeypatch.setattr(bench_suite, "suite_report", lambda *a, **k: "the report")
+    assert main(["bench", "--suite", "--sizes", "1000", "--tts-sizes", "1000", "--method",
+                 "seed", "--repeat", "2"]) == 0
+    err = capsys.readouterr().err
+    # 2 rounds of the dam break and the bare loop on 1 and 2 threads, and the
+    # time to solution: 10 runs, each with its line above the bar
+    assert "| 10/10 runs [" in err and err.count("[2/2] ") == 5

@@ -311,13 +311,18 @@ def _log(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
+def throughput_configs(methods: list[str], sizes: list[int]) -> list[tuple]:
+    """(method, kind, n, threads) of the scaling table's runs."""
+    return [(method, kind, n, threads) for method in methods for kind in ("dam", "bare")
+            for n in (sizes if kind == "dam" else [s for s in sizes if s <= 100_000])
+            for threads in (1, 2)]
+
+
 def run_throughput(methods: list[str], sizes: list[int], repeat: int, log=_log) -> list[dict]:
     """The scaling table's runs: the dam break at every size and the bare loop up to
     100k, on 1 and 2 threads, each in a child process, `repeat` times in rounds; the
     median run of each configuration."""
-    configs = [(method, kind, n, threads) for method in methods for kind in ("dam", "bare")
-               for n in (sizes if kind == "dam" else [s for s in sizes if s <= 100_000])
-               for threads in (1, 2)]
+    configs = throughput_configs(methods, sizes)
     # Rounds over all the configurations, so that a slow spell of the machine
     # falls on one run of many configurations rather than on all runs of one.
     runs: dict[tuple, list[dict]] = {c: [] for c in configs}
@@ -439,8 +444,12 @@ def main(args) -> int:
     methods = [args.method] if args.method_given else list(VARIANTS)
     start = time.perf_counter()
     repeat = max(1, args.repeat)
-    rows = run_throughput(methods, sizes, repeat)
-    tts = run_times_to_solution(methods, tts_sizes, repeat)
+    from .progress import Runs
+
+    total = repeat * (len(throughput_configs(methods, sizes)) + len(methods) * len(tts_sizes))
+    with Runs(total) as runs:
+        rows = run_throughput(methods, sizes, repeat, log=runs.done)
+        tts = run_times_to_solution(methods, tts_sizes, repeat, log=runs.done)
     text = suite_report(args, rows, tts, repeat, start)
     print(text)
     if args.write:
