@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 
 #include "simd/lanes.hpp"
@@ -13,6 +14,13 @@ using Real = double;
 using Vec2 = Eigen::Matrix<Real, 2, 1>;
 using Index = std::int32_t;  // particle and cell indices (storage order)
 using Id = std::int64_t;     // stable particle identity
+
+// A cell index from a coordinate measured in cells: clamped to [0, last]
+// while still a Real (a NaN goes to 0), so the conversion to an integer is
+// defined for any coordinate; within range it truncates as a cast does.
+inline Index clamp_cell(Real t, Index last) {
+  return static_cast<Index>(std::fmin(std::fmax(t, Real(0)), static_cast<Real>(last)));
+}
 
 constexpr Real kPi = Real(3.14159265358979323846);
 

@@ -61,8 +61,8 @@ struct CellFloats {
 #endif
     for (; i < i1; ++i) {
       const Real tx = (x[i].x() - lo.x()) * inv, ty = (x[i].y() - lo.y()) * inv;
-      ux[i] = static_cast<float>(tx - std::clamp<Index>(static_cast<Index>(tx), 0, nx - 1));
-      uy[i] = static_cast<float>(ty - std::clamp<Index>(static_cast<Index>(ty), 0, ny - 1));
+      ux[i] = static_cast<float>(tx - clamp_cell(tx, nx - 1));
+      uy[i] = static_cast<float>(ty - clamp_cell(ty, ny - 1));
     }
   }
 };

@@ -154,10 +154,8 @@ void CellGrid::cells_of(const Vec2* x, Index b0, Index b1) {
 #endif
   for (; i < b1; ++i) {
     const Vec2& p = x[i];
-    const Index ix =
-        std::clamp<Index>(static_cast<Index>((p.x() - lo_.x()) * inv_.x()), 0, nx_ - 1);
-    const Index iy =
-        std::clamp<Index>(static_cast<Index>((p.y() - lo_.y()) * inv_.y()), 0, ny_ - 1);
+    const Index ix = clamp_cell((p.x() - lo_.x()) * inv_.x(), nx_ - 1);
+    const Index iy = clamp_cell((p.y() - lo_.y()) * inv_.y(), ny_ - 1);
     cell[i] = iy * nx_ + ix;
   }
 }

@@ -21,12 +21,16 @@ struct I8 {
   SPHFLUID_INLINE static I8 splat(std::int32_t x) { return I8(_mm256_set1_epi32(x)); }
   SPHFLUID_INLINE static I8 iota() { return I8(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)); }
   SPHFLUID_INLINE static I8 load(const std::int32_t* p, Mask8 m) {
+    asan_touch(p, m);
     return I8(_mm256_maskz_loadu_epi32(m, p));
   }
   SPHFLUID_INLINE void store(std::int32_t* p) const {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
   }
-  SPHFLUID_INLINE void store(std::int32_t* p, Mask8 m) const { _mm256_mask_storeu_epi32(p, m, v); }
+  SPHFLUID_INLINE void store(std::int32_t* p, Mask8 m) const {
+    asan_touch(p, m);
+    _mm256_mask_storeu_epi32(p, m, v);
+  }
   SPHFLUID_INLINE friend I8 operator+(I8 a, I8 b) { return I8(_mm256_add_epi32(a.v, b.v)); }
   SPHFLUID_INLINE friend I8 operator*(I8 a, I8 b) { return I8(_mm256_mullo_epi32(a.v, b.v)); }
   SPHFLUID_INLINE friend I8 max(I8 a, I8 b) { return I8(_mm256_max_epi32(a.v, b.v)); }
@@ -50,6 +54,12 @@ SPHFLUID_INLINE I8 truncate(Mask8 m, D8 a) { return I8(_mm512_maskz_cvttpd_epi32
 SPHFLUID_INLINE D8 to_double(I8 a) { return D8(_mm512_cvtepi32_pd(a.v)); }
 // base[index] on the lanes of m (zero elsewhere).
 SPHFLUID_INLINE I8 gather(Mask8 m, I8 index, const std::int32_t* base) {
+#if defined(__SANITIZE_ADDRESS__)
+  alignas(32) std::int32_t at[8];
+  index.store(at);
+  for (int k = 0; k < 8; ++k)
+    if ((m >> k) & 1u) asan_touch(base + at[k], 1u);
+#endif
   return I8(_mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), m, index.v, base, 4));
 }
 

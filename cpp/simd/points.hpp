@@ -54,6 +54,8 @@ using Span = typename SpanOf<L>::type;
 
 // The span's points from p (interleaved doubles).
 SPHFLUID_INLINE void load_xy(const double* p, const Span8& s, D8& x, D8& y) {
+  asan_touch(p, s.lo);
+  asan_touch(p + 8, s.hi);
   const __m512d a = _mm512_maskz_loadu_pd(s.lo, p), b = _mm512_maskz_loadu_pd(s.hi, p + 8);
   x = D8(x_of8(a, b));
   y = D8(y_of8(a, b));
@@ -86,6 +88,7 @@ SPHFLUID_INLINE __m512d join4(__m256d x, __m256d y) {
                                _mm512_insertf64x4(_mm512_castpd256_pd512(x), y, 1));
 }
 SPHFLUID_INLINE void load_xy(const double* p, const Span4& s, D4& x, D4& y) {
+  asan_touch(p, s.doubles);
   const __m512d xy = split4(_mm512_maskz_loadu_pd(s.doubles, p));
   x = D4(_mm512_castpd512_pd256(xy));
   y = D4(_mm512_extractf64x4_pd(xy, 1));
@@ -97,10 +100,13 @@ SPHFLUID_INLINE void add_xy(double* out, const Span8& s, D8 x, D8 y) {
   const __m512i hi_xy = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
   const __m512d lo = _mm512_permutex2var_pd(x.v, lo_xy, y.v);
   const __m512d hi = _mm512_permutex2var_pd(x.v, hi_xy, y.v);
+  asan_touch(out, s.lo);
+  asan_touch(out + 8, s.hi);
   _mm512_mask_storeu_pd(out, s.lo, _mm512_add_pd(_mm512_maskz_loadu_pd(s.lo, out), lo));
   _mm512_mask_storeu_pd(out + 8, s.hi, _mm512_add_pd(_mm512_maskz_loadu_pd(s.hi, out + 8), hi));
 }
 SPHFLUID_INLINE void add_xy(double* out, const Span4& s, D4 x, D4 y) {
+  asan_touch(out, s.doubles);
   _mm512_mask_storeu_pd(out, s.doubles,
                         _mm512_add_pd(_mm512_maskz_loadu_pd(s.doubles, out), join4(x.v, y.v)));
 }
@@ -127,6 +133,7 @@ SPHFLUID_INLINE void add_lane_sums4(double* out, int k, const D8 (&sx)[4], const
   const __m512d sums =
       sum8(sx[0].v, sx[1].v, sx[2].v, sx[3].v, sy[0].v, sy[1].v, sy[2].v, sy[3].v);
   const __mmask8 mine = static_cast<__mmask8>((1u << (2 * k)) - 1);
+  asan_touch(out, mine);
   _mm512_mask_storeu_pd(out, mine, _mm512_fmadd_pd(scale.v, sums, _mm512_maskz_loadu_pd(mine, out)));
 }
 #endif  // SPHFLUID_AVX512
