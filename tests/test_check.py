@@ -218,7 +218,7 @@ def test_the_loader_enforces_whatever_the_schema_says(tmp_path, scene_dict, caps
 
     stricter = copy.deepcopy(sch.scene_schema())
     stricter["properties"]["name"]["maxLength"] = 3
-    monkeypatch.setattr(sch, "_validator", lambda: jsonschema.Draft202012Validator(stricter))
+    monkeypatch.setattr(sch, "_validator", lambda name=sch.SCHEMA_FILE: jsonschema.Draft202012Validator(stricter))
     code, out = check(tmp_path, {**scene_dict, "name": "a long name"}, capsys)
     assert code == 2
     assert "name: 'a long name' is too long" in out

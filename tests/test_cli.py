@@ -109,6 +109,27 @@ def test_progress_goes_to_stderr_and_quiet_leaves_it_out(tmp_path, capsys):
     assert "steps               50" in out
 
 
+def test_quiet_run_says_once_how_long_a_long_run_takes(tmp_path, capsys, monkeypatch):
+    from sphfluid import cli
+
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(BASE_SCENE))
+    assert main(["run", str(scene), "--quiet"]) == 0  # a short run: no note
+    assert "note:" not in capsys.readouterr().err
+    # the same run, with "long" meaning any time at all: one note, with an estimate
+    monkeypatch.setattr(cli._Run, "LONG_RUN", 1e-12)
+    monkeypatch.setattr(cli._Run, "NOTE_AFTER", 0.0)
+    assert main(["run", str(scene), "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    notes = [line for line in err.splitlines() if line.startswith("note:")]
+    assert len(notes) == 1, err
+    assert re.search(r"ends in about [0-9.e-]+ s \(t = [0-9.e-]+ of 0.05 s after", notes[0])
+    assert "--checkpoint-every T" in notes[0]
+    assert "steps               50" in out  # the same steps as without the note
+    assert main(["run", str(scene)]) == 0  # the bar shows the time left: no note
+    assert "note:" not in capsys.readouterr().err
+
+
 def test_runs_bar_counts_the_runs_below_their_lines(capsys):
     from sphfluid.progress import Runs
 

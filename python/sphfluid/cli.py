@@ -44,7 +44,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,check,schema,bench,stress,validate,fuzz}")
+                           metavar="{run,view,record,check,schema,bench,stress,validate,sweep,fuzz}")
     _add_run(sub)
     _add_view(sub)
     _add_record(sub)
@@ -53,8 +53,28 @@ def _parser() -> argparse.ArgumentParser:
     _add_bench(sub)
     _add_stress(sub)
     _add_validate(sub)
+    _add_sweep(sub)
     _add_fuzz(sub)
     return p
+
+
+def _add_sweep(sub) -> None:
+    w = sub.add_parser("sweep", help="run a parameter sweep of a scene (docs/sweeps.md)",
+                       description="Run the runs of the sweep file SPEC that DIR/results.csv "
+                                   "does not hold yet, as tasks on Dask distributed (a local "
+                                   "cluster of worker processes by default), one row of "
+                                   "results per run.")
+    w.add_argument("spec", help="the sweep file (JSON, docs/sweeps.md)")
+    w.add_argument("--out", metavar="DIR", help="where results.csv and the runs' outputs go "
+                                                "(default: SPEC's name + .sweep)")
+    w.add_argument("--workers", type=_count, default=None,
+                   help="local worker processes (default: the cores / --threads); 0 runs the "
+                        "runs one after another in this process")
+    w.add_argument("--threads", type=_count, default=1, help="OpenMP threads per run (default 1)")
+    w.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786) instead of a local cluster")
+    w.add_argument("--dry-run", action="store_true", help="list the runs, run nothing")
+    w.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _add_fuzz(sub) -> None:
@@ -341,6 +361,10 @@ def _main(args, argv: list[str] | None) -> int:
             from .validation.runner import main as validate_main
 
             return validate_main(args)
+        if args.command == "sweep":
+            from .sweep import main as sweep_main
+
+            return sweep_main(args)
         if args.command == "fuzz":
             from .fuzz import main as fuzz_main
 
@@ -519,6 +543,8 @@ class _Run:
     logs without changing its path."""
 
     CHUNK = 25  # steps between progress and density samples
+    LONG_RUN = 600.0  # s: under --quiet, a run expected to take longer gets a note
+    NOTE_AFTER = 0.5  # s: the least wall time its estimate is timed over
     LOG_PARTS = 100  # without --out, log at least every 1/LOG_PARTS of the run (at samples)
 
     def __init__(self, args, sim, duration: float, log=None):
@@ -542,6 +568,9 @@ class _Run:
         if args.checkpoint_every is not None:
             self.checkpoint_times.add(duration)
         self.bar = None if args.quiet else Progress(duration, start, sim.step_count)
+        # under --quiet no bar shows the time left: a run that looks long at a
+        # sample gets one line saying how long (note_length)
+        self.noted = self.bar is not None
         self.start, self.first_step = start, sim.step_count
         self.started = time.perf_counter()  # (to_end sets it again as it begins)
         self.checkpoint_time: float | None = None  # of the last checkpoint written
@@ -617,11 +646,34 @@ class _Run:
             if self.bar:
                 self.bar.update(sim.time, sim)
             self.write_probes()
+            self.note_length()
             if (self.log_every is not None and self.log is not None
                     and sim.time >= self.next_log and not sim._reached(target)):
                 self.write_log()  # (a landing writes its own line)
             if steps < self.CHUNK:
                 return
+
+    def note_length(self) -> None:
+        """Under --quiet, one line on stderr the first time the time left, at the
+        pace so far (timed over NOTE_AFTER s at least), is over LONG_RUN: no bar
+        says so. (At the samples only: a note changes nothing of the run.)"""
+        if self.noted:
+            return
+        sim, now = self.sim, time.perf_counter()
+        wall, done = now - self.started, sim.time - self.start
+        if wall < self.NOTE_AFTER or done <= 0:
+            return
+        left = wall / done * (self.duration - sim.time)
+        if left < self.LONG_RUN:
+            return
+        from .check import _duration
+
+        self.noted = True
+        print(f"note: at its pace so far this run ends in about {_duration(left)} "
+              f"(t = {sim.time:.4g} of {self.duration:g} s after {_duration(now - self.started)})"
+              f"; Ctrl+C stops it" + ("" if self.checkpoint_times else
+                                      ", --checkpoint-every T lets a stopped run resume"),
+              file=sys.stderr)
 
     def write_log(self, stats: dict | None = None, **extra) -> None:
         """A line of the log (if any) for the current state (or stats)."""

@@ -118,7 +118,7 @@ class Runs:
             dynamic_ncols=width is None, ncols=width, nrows=None if width is None else 24,
             leave=True,
             bar_format="{percentage:3.0f}%|{bar}| {n}/{total} " + what
-                       + " [{elapsed}<{remaining}]")
+                       + " [{elapsed}<{remaining}{postfix}]")
 
     def line(self, text: str) -> None:
         self._bar.write(text, file=self._stream)
@@ -127,6 +127,10 @@ class Runs:
     def done(self, text: str) -> None:
         self.line(text)
         self._bar.update(1)
+
+    def status(self, text: str) -> None:
+        """Words after the times in the bar ("2 failed"), or none."""
+        self._bar.set_postfix_str(text, refresh=False)
 
     def advance(self) -> None:
         """A finished run with no line of its own."""

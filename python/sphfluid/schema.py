@@ -38,17 +38,19 @@ TOO_DEEP = f"nested more than {_MAX_DEPTH} levels deep"
 
 
 @functools.lru_cache(maxsize=None)
-def scene_schema() -> dict:
-    """The schema, parsed (shared: do not modify)."""
-    text = resources.files("sphfluid").joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+def scene_schema(name: str = SCHEMA_FILE) -> dict:
+    """The schema (or another of the package's, by file name), parsed (shared: do
+    not modify)."""
+    text = resources.files("sphfluid").joinpath(name).read_text(encoding="utf-8")
     return json.loads(text)
 
 
 @functools.lru_cache(maxsize=None)
-def _validator() -> jsonschema.Draft202012Validator:
+def _validator(name: str = SCHEMA_FILE) -> jsonschema.Draft202012Validator:
     import jsonschema  # ~50 ms: on the first scene, not on import
 
-    return jsonschema.Draft202012Validator(_inline_refs(scene_schema(), scene_schema()["$defs"]))
+    schema = scene_schema(name)
+    return jsonschema.Draft202012Validator(_inline_refs(schema, schema.get("$defs", {})))
 
 
 def _inline_refs(node: Any, defs: dict) -> Any:
@@ -83,23 +85,30 @@ def keys(*path: str) -> list[str]:
 
 
 def json_path(parts: Iterable[Any]) -> str:
-    """["walls", 3, "polyline"] as walls[3].polyline."""
+    """["walls", 3, "polyline"] as walls[3].polyline; a key that would read as a
+    path (a sweep's "solver.cfl") in brackets: vary["solver.cfl"]."""
     text = ""
     for p in parts:
-        text += f"[{p}]" if isinstance(p, int) else (f".{p}" if text else str(p))
+        if isinstance(p, int):
+            text += f"[{p}]"
+        elif not p or any(c in str(p) for c in '.[]" '):
+            text += f"[{json.dumps(p)}]"
+        else:
+            text += f".{p}" if text else str(p)
     return text
 
 
-def problems(data: Any) -> list[tuple[str, str]]:
-    """(JSON path, message) for each place ``data`` breaks the schema or holds a
-    number that is not finite, one per path, in the schema's order."""
+def problems(data: Any, name: str = SCHEMA_FILE) -> list[tuple[str, str]]:
+    """(JSON path, message) for each place ``data`` breaks the schema (the scene
+    format's, or the package's schema file ``name``) or holds a number that is
+    not finite, one per path, in the schema's order."""
     deep = _too_deep(data)
     if deep is not None:  # not checked further: nothing in it is to be trusted
         return [(json_path(deep), TOO_DEEP)]
     out: dict[str, str] = {}
     for path, message in _non_finite(data):
         out.setdefault(json_path(path), message)
-    for error in _validator().iter_errors(data):
+    for error in _validator(name).iter_errors(data):
         for path, message in _messages(error):
             out.setdefault(json_path(path), message)
     return list(out.items())
@@ -184,7 +193,7 @@ def _message(v: str, value: Any, inst: Any) -> str | None:
     if v in bounds:
         return f"must be {bounds[v]} {value:g}"
     if v == "minItems":
-        return f"expected at least {value} items"
+        return f"expected at least {value} item{'s' if value != 1 else ''}"
     if v == "uniqueItems":
         seen: list = []
         for item in inst:
