@@ -37,6 +37,16 @@ def test_four_runs_on_two_worker_processes_one_blowing_up(tmp_path):
     assert all(int(r["pid"]) != os.getpid() for r in rows)  # Dask's worker processes ran them
 
 
+def test_runs_on_an_existing_cluster_by_its_address(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
+                                  dashboard_address=":0") as cluster:
+        outcome = run_sweep(load_sweep(_sweep(duration=0.01, vary={"fluid.viscosity": [0.4, 0.5]})),
+                            tmp_path, scheduler=cluster.scheduler_address, progress=False)
+    assert outcome.statuses == {"ok": 2}
+    assert all(int(r["pid"]) != os.getpid() for r in read_results(tmp_path / "results.csv"))
+
+
 def test_rows_match_a_plain_run_of_the_same_scene(tmp_path):
     """A sweep's row holds what `sphfluid run` would say of the same scene."""
     from sphfluid import Simulation, load_scene
@@ -70,6 +80,27 @@ def test_a_sweep_run_again_runs_only_what_is_missing(tmp_path):
     assert (third.ran, third.skipped) == (3, 3)
     assert sorted(ran) == [0.5, 0.6, 0.6] and rows[1]["param:fluid.viscosity"] == "0.5"
     assert len(read_results(tmp_path / "results.csv")) == 6
+    # a run that ended in an error runs again; the others are kept
+    text = (tmp_path / "results.csv").read_text().splitlines()
+    text[3] = text[3].replace(",ok,", ",error,", 1)
+    (tmp_path / "results.csv").write_text("\n".join(text) + "\n")
+    fourth = run_sweep(load_sweep(spec), tmp_path, workers=0, progress=False)
+    assert (fourth.ran, fourth.skipped) == (1, 5)
+    assert [r["status"] for r in read_results(tmp_path / "results.csv")] == ["ok"] * 6
+
+
+def test_repeats_are_runs_of_their_own_and_kept_rows_take_the_new_parameters(tmp_path):
+    spec = _sweep(duration=0.01, vary={"fluid.viscosity": [0.5, 0.5, 0.4]})
+    outcome = run_sweep(load_sweep(spec), tmp_path, workers=0, progress=False)
+    rows = read_results(tmp_path / "results.csv")
+    assert outcome.ran == 3 and len(rows) == 3 and len({r["key"] for r in rows}) == 3
+    assert rows[0]["steps"] == rows[1]["steps"]  # the same scene twice
+    # a new key whose first value is the base scene's: the kept rows say so
+    spec["vary"] = {"fluid.gas_constant": [250.0, 300.0], "fluid.viscosity": [0.5, 0.5, 0.4]}
+    again = run_sweep(load_sweep(spec), tmp_path, workers=0, progress=False)
+    assert (again.ran, again.skipped) == (3, 3)
+    rows = read_results(tmp_path / "results.csv")
+    assert [r["param:fluid.gas_constant"] for r in rows] == ["250.0"] * 3 + ["300.0"] * 3
 
 
 def test_ranges_grids_zips_methods_and_seeded_draws():
@@ -79,7 +110,7 @@ def test_ranges_grids_zips_methods_and_seeded_draws():
     assert [r.params["solver.time_step"] for r in s.runs[::2]] == pytest.approx([1e-4, 1e-3, 1e-2])
     assert [r.params["fluid.viscosity"] for r in s.runs[:2]] == pytest.approx([0.1, 0.3])
     assert s.columns == ("solver.time_step", "fluid.viscosity", "method")
-    assert len({r.key for r in s.runs}) == 6
+    assert len({s.key(r) for r in s.runs}) == 6
     spec = _sweep(duration=0.01, samples=3, seed=7, combine="zip",
                   vary={"fluid.viscosity": {"uniform": [0.1, 0.5]}, "solver.time_step": [1e-3] * 3})
     a, b = load_sweep(spec), load_sweep(copy.deepcopy(spec))
@@ -110,16 +141,25 @@ def test_ranges_grids_zips_methods_and_seeded_draws():
     ({"vary": {"fluid.viscosity": [0.1, -1.0]}},
      "run 1 (fluid.viscosity = -1.0): fluid.viscosity: must be >= 0, got -1"),
     ({"combine": "zip", "vary": {"fluid.viscosity": [0.1, 0.2], "solver.time_step": [1e-3]}},
-     'combine: "zip" needs lists of one length, got fluid.viscosity: 2, solver.time_step: 1'),
+     'combine: "zip" needs lists of one length, got vary["fluid.viscosity"]: 2, '
+     'vary["solver.time_step"]: 1'),
     ({"scene": "missing.json"}, "scene: cannot read"),
     ({"duration": -1}, "duration: must be > 0, got -1"),
     ({"runs": 3}, 'runs: unknown key'),
+    ({"vary": {"duration": [1.0, 2.0]}}, 'vary.duration: the runs\' duration is the sweep\'s'),
+    ({"scene": [1]}, "scene: expected a string or an object"),
 ])
 def test_bad_sweep_files_are_refused_by_json_path(change, message):
     spec = {**_sweep(duration=0.01), **change}
     with pytest.raises(SweepError) as e:
         load_sweep(spec)
     assert message in str(e.value), str(e.value)
+
+
+def test_a_scene_file_that_is_not_a_scene_object_is_refused(tmp_path):
+    (tmp_path / "l.json").write_text("[1]")
+    with pytest.raises(SweepError, match="scene: .*l.json holds a list of 1, not a scene"):
+        load_sweep({"scene": str(tmp_path / "l.json"), "duration": 1.0})
 
 
 def test_a_scene_without_a_duration_needs_one_in_the_sweep():

@@ -44,7 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sphfluid", description="2D SPH fluid simulator.")
     p.add_argument("--version", action="version", version=f"sphfluid {__version__}")
     sub = p.add_subparsers(dest="command", required=True,
-                           metavar="{run,view,record,check,schema,bench,stress,validate,sweep,fuzz}")
+                           metavar="{run,view,record,check,schema,bench,stress,validate,sweep,dataset,"
+                                   "fuzz}")
     _add_run(sub)
     _add_view(sub)
     _add_record(sub)
@@ -54,8 +55,30 @@ def _parser() -> argparse.ArgumentParser:
     _add_stress(sub)
     _add_validate(sub)
     _add_sweep(sub)
+    _add_dataset(sub)
     _add_fuzz(sub)
     return p
+
+
+def _engine_options(p) -> None:
+    """Where a sweep's runs run (sweep, dataset)."""
+    p.add_argument("--workers", type=_count, default=None,
+                   help="local worker processes (default: the cores / --threads); 0 runs the "
+                        "runs one after another in this process")
+    p.add_argument("--threads", type=_count, default=1, help="OpenMP threads per run (default 1)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786) instead of a local cluster")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_dataset(sub) -> None:
+    d = sub.add_parser("dataset", help="trajectories for learned simulators (docs/datasets.md)",
+                       description="Run the sweep file SPEC (with its \"dataset\" section) and "
+                                   "write its runs' trajectories in LagrangeBench's layout: "
+                                   "DIR/train.h5, valid.h5, test.h5 and metadata.json.")
+    d.add_argument("spec", help="the sweep file (JSON, docs/sweeps.md, docs/datasets.md)")
+    d.add_argument("--out", metavar="DIR", required=True, help="the dataset's folder")
+    _engine_options(d)
 
 
 def _add_sweep(sub) -> None:
@@ -67,14 +90,8 @@ def _add_sweep(sub) -> None:
     w.add_argument("spec", help="the sweep file (JSON, docs/sweeps.md)")
     w.add_argument("--out", metavar="DIR", help="where results.csv and the runs' outputs go "
                                                 "(default: SPEC's name + .sweep)")
-    w.add_argument("--workers", type=_count, default=None,
-                   help="local worker processes (default: the cores / --threads); 0 runs the "
-                        "runs one after another in this process")
-    w.add_argument("--threads", type=_count, default=1, help="OpenMP threads per run (default 1)")
-    w.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing Dask scheduler (tcp://host:8786) instead of a local cluster")
+    _engine_options(w)
     w.add_argument("--dry-run", action="store_true", help="list the runs, run nothing")
-    w.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _add_fuzz(sub) -> None:
@@ -365,6 +382,10 @@ def _main(args, argv: list[str] | None) -> int:
             from .sweep import main as sweep_main
 
             return sweep_main(args)
+        if args.command == "dataset":
+            from .dataset import main as dataset_main
+
+            return dataset_main(args)
         if args.command == "fuzz":
             from .fuzz import main as fuzz_main
 

@@ -36,6 +36,7 @@ FORMAT = _schema.scene_schema(SCHEMA_FILE)["properties"]["format"]["const"]  # "
 RESULTS = "results.csv"
 MAX_RUNS = 100_000
 DONE = ("ok", "blow-up")  # statuses a sweep run again keeps (an error runs again)
+WRITE_EVERY = 2.0  # s: the table is rewritten after a run at most this often (and at the end)
 _SUMMARY = ("steps", "simulated_time", "wall_time", "particles", "removed", "max_density_error",
             "max_compression", "max_speed", "retried_steps", "mean_dt", "particle_steps_per_s")
 _PATH_TOKEN = re.compile(r"\.?([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]")
@@ -52,7 +53,7 @@ class Run:
     index: int
     params: dict[str, Any]  # JSON path (and "method") -> value
     scene: dict
-    key: str  # hash of the scene, duration, outputs and sphfluid version
+    repeat: int = 0  # how many earlier runs of the sweep have the same scene
 
 
 @dataclass
@@ -65,6 +66,23 @@ class Sweep:
     every: float | None
     runs: list[Run] = field(default_factory=list)
     columns: tuple[str, ...] = ()  # the parameters' names, in the file's order
+    dataset: dict | None = None  # the file's "dataset" (sphfluid dataset), as given
+
+    def key(self, run: Run) -> str:
+        """What a run is known by: a hash of its scene, the duration, the outputs,
+        the frame interval, the sphfluid version, and its place among runs of the
+        same scene (a repeat is a run of its own)."""
+        from . import __version__
+
+        text = json.dumps({"scene": run.scene, "duration": self.duration,
+                           "outputs": sorted(self.outputs), "every": self.every,
+                           "version": __version__, "repeat": run.repeat},
+                          sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def folder(self, out: Path, run: Run) -> Path:
+        """Where a run keeps its outputs: DIR/runs/KEY."""
+        return Path(out).resolve() / "runs" / self.key(run)
 
 
 def parse_path(text: str) -> list[str | int] | None:
@@ -137,11 +155,14 @@ def _base_scene(data: dict, source: Path | None) -> tuple[dict | None, str | Non
     if not path.is_absolute() and source is not None:
         path = source.parent / path
     try:
-        return json.loads(path.read_text(encoding="utf-8")), None
+        scene = json.loads(path.read_text(encoding="utf-8"))
     except OSError as e:
         return None, f"cannot read {path}: {e.strerror or e}"
     except ValueError as e:
         return None, f"{path} is not JSON: {e}"
+    if not isinstance(scene, dict):
+        return None, f"{path} holds {_schema.kind(scene)}, not a scene (a JSON object)"
+    return scene, None
 
 
 def load_sweep(source: str | Path | dict) -> Sweep:
@@ -177,6 +198,8 @@ def load_sweep(source: str | Path | dict) -> Sweep:
                        else ([], 'expected a JSON path into the scene such as "solver.cfl" or '
                                  '"fluid_regions[0].max[1]"'))
         where = _schema.json_path(["vary", key])
+        if parsed is not None and parsed[0] == "duration":
+            why = 'the runs\' duration is the sweep\'s "duration", not a key to vary'
         if why:
             problems.append(f"{where}: {why}")
         elif (why := _set(json.loads(json.dumps(base)), parsed, values[0])) is not None:
@@ -188,8 +211,11 @@ def load_sweep(source: str | Path | dict) -> Sweep:
             problems.append(f"methods[{k}]: expected {_schema.one_of(METHODS)}, got "
                             f"{_schema.shown(method)}{_schema.did_you_mean(method, METHODS)}")
     duration = data.get("duration", base.get("duration"))
-    if not isinstance(duration, (int, float)) or not duration > 0:
+    if "duration" not in data and "duration" not in base:
         problems.append("duration: the scene gives no duration: give the runs' duration here")
+    elif not isinstance(duration, (int, float)) or isinstance(duration, bool) or not duration > 0:
+        problems.append(f"scene.duration: expected a number > 0, got {_schema.shown(duration)} "
+                        "(or give the runs' duration here)")
     if problems:
         raise SweepError(problems, name)
 
@@ -200,10 +226,9 @@ def load_sweep(source: str | Path | dict) -> Sweep:
         raise SweepError([f"vary: {count:,} runs; at most {MAX_RUNS:,} in one sweep"], name)
     outputs = tuple(dict.fromkeys(["summary", *data.get("outputs", [])]))
     sweep = Sweep(name=data.get("name", ""), duration=float(duration), outputs=outputs,
-                  every=data.get("every"),
+                  every=data.get("every"), dataset=data.get("dataset"),
                   columns=tuple(k for k, _, _ in axes) + (("method",) if data.get("methods") else ()))
-    from . import __version__
-
+    seen: dict[str, int] = {}
     for values in combos:
         for method in methods:
             scene = json.loads(json.dumps(base))
@@ -215,16 +240,21 @@ def load_sweep(source: str | Path | dict) -> Sweep:
                 scene.setdefault("solver", {})["method"] = method
                 params["method"] = method
             scene["duration"] = sweep.duration
-            text = json.dumps({"scene": scene, "outputs": outputs, "every": sweep.every,
-                               "version": __version__}, sort_keys=True, separators=(",", ":"))
-            key = hashlib.sha256(text.encode()).hexdigest()[:16]
-            sweep.runs.append(Run(len(sweep.runs), params, scene, key))
+            text = json.dumps(scene, sort_keys=True)
+            sweep.runs.append(Run(len(sweep.runs), params, scene, seen.get(text, 0)))
+            seen[text] = seen.get(text, 0) + 1
+    # each scene checked as the loader checks it; a mistake that several runs
+    # share (one of the base scene's) is told once
     problems = []
+    told: set[str] = set()
     for run in sweep.runs:
         try:
             load_scene(run.scene)
         except SceneError as e:
-            problems += [f"run {run.index} ({_shown_params(run.params)}): {p}" for p in e.problems]
+            for p in e.problems:
+                if p not in told:
+                    told.add(p)
+                    problems.append(f"run {run.index} ({_shown_params(run.params)}): {p}")
         if len(problems) >= 20:
             problems.append("... (the first 20 problems)")
             break
@@ -240,7 +270,7 @@ def _combinations(axes, combine: str, name: str) -> list[tuple]:
     if combine == "zip":
         lengths = {len(v) for v in lists}
         if len(lengths) > 1:
-            sizes = ", ".join(f"{k}: {len(v)}" for k, _, v in axes)
+            sizes = ", ".join(f"{_schema.json_path(['vary', k])}: {len(v)}" for k, _, v in axes)
             raise SweepError([f'combine: "zip" needs lists of one length, got {sizes}'], name)
         return list(zip(*lists))
     count = math.prod(len(v) for v in lists)
@@ -265,24 +295,25 @@ def run_one(task: dict) -> dict:
     from .scene import load_scene
     from .simulation import InstabilityError, Simulation
 
-    row: dict[str, Any] = {"run": task["index"], "key": task["key"], "status": "ok", "error": "",
-                           **{f"param:{k}": v for k, v in task["params"].items()},
-                           "host": socket.gethostname(), "pid": os.getpid(),
-                           "threads": task["threads"]}
+    row = _row(task, "ok", "")
+    row.update(host=socket.gethostname(), pid=os.getpid())
     started = time.perf_counter()
     sim = None
     folder = Path(task["folder"])
     outputs = task["outputs"]
     keep = any(o != "summary" for o in outputs)
+    scene = task["scene"]
+    if "probes" not in outputs:  # (they change nothing of the run)
+        scene = {k: v for k, v in scene.items() if k != "probes"}
     try:
-        sim = Simulation(load_scene(task["scene"]), threads=task["threads"])
+        sim = Simulation(load_scene(scene), threads=task["threads"])
         if keep:
             folder.mkdir(parents=True, exist_ok=True)
             (folder / "scene.json").write_text(json.dumps(task["scene"], indent=2))
 
         class Args:  # what _Run reads of `sphfluid run`'s options
             out = folder if keep else None
-            every = task["every"] if "frames" in outputs else None
+            every = task["every"] if {"frames", "trajectory"} & set(outputs) else None
             checkpoint_every = task["duration"] if "checkpoint" in outputs else None
             quiet = True
             scene = str(folder / "scene.json")
@@ -291,12 +322,23 @@ def run_one(task: dict) -> dict:
 
         run = _Run(Args, sim, task["duration"])
         run.noted = True  # (no note of the run's length: the sweep shows its progress)
-        if "frames" not in outputs:
+        track: list = []  # the trajectory: positions (float32) and ids at each frame time
+        if "trajectory" in outputs:
+            write = run.write_frame if "frames" in outputs else (lambda: None)
+
+            def frame() -> None:
+                write()
+                track.append((sim.positions.astype("float32"), sim.ids.copy()))
+
+            run.write_frame = frame  # type: ignore[method-assign]
+        elif "frames" not in outputs:
             run.frame_times = {}
             run.write_frame = lambda: None  # type: ignore[method-assign]
         run.save_last_good_state = lambda: _save_last_good(sim, folder)  # type: ignore[method-assign]
         run.to_end()
         row.update(_summary(run))
+        if "trajectory" in outputs:
+            _save_trajectory(folder / "trajectory.npz", track)
     except InstabilityError as e:
         row.update(status="blow-up", error=str(e))
         if sim is not None:
@@ -305,6 +347,33 @@ def run_one(task: dict) -> dict:
         row.update(status="error", error=f"{type(e).__name__}: {e}")
     row["wall_time"] = round(time.perf_counter() - started, 4)
     return row
+
+
+def _row(task: dict, status: str, error: str) -> dict:
+    """The start of a task's row: its place, key, status, parameters."""
+    return {"run": task["index"], "key": task["key"], "status": status, "error": error,
+            "threads": task["threads"], **{f"param:{k}": v for k, v in task["params"].items()}}
+
+
+def _save_trajectory(path: Path, track: list) -> None:
+    """The positions at every frame time, each frame's particles by id: times
+    (frames,), positions (frames, particles, 2) float32, ids (particles,); a
+    frame with other particles than the first (some left the domain) is
+    marked by ids_changed (the frame it happened at), its positions cut."""
+    import numpy as np
+
+    from .output import replacing
+
+    first = np.sort(track[0][1])
+    frames, changed = [], -1
+    for k, (x, ids) in enumerate(track):
+        order = np.argsort(ids, kind="stable")
+        if len(ids) != len(first) or not np.array_equal(ids[order], first):
+            changed = k
+            break
+        frames.append(x[order])
+    with replacing(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, positions=np.array(frames), ids=first, ids_changed=changed)
 
 
 def _save_last_good(sim, folder: Path) -> None:
@@ -352,8 +421,7 @@ def write_results(path: Path, rows: Iterable[dict], columns: Iterable[str]) -> N
             "pid", "threads", "key"]
     extra = sorted({k for r in rows for k in r} - set(head))
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=head + extra, extrasaction="ignore",
-                            lineterminator="\n")
+    writer = csv.DictWriter(buffer, fieldnames=head + extra, lineterminator="\n")
     writer.writeheader()
     for r in rows:
         writer.writerow({k: _cell(v) for k, v in r.items()})
@@ -387,40 +455,48 @@ def run_sweep(sweep: Sweep, out: Path, *, workers: int | None = None, threads: i
     LocalCluster of `workers` processes (default: the cores / threads), on the
     scheduler at `scheduler`, or in this process (workers=0), each run on
     `threads` OpenMP threads; the table is rewritten after every run."""
-    out = Path(out)
+    out = Path(out).resolve()  # (workers elsewhere write to the same path)
     out.mkdir(parents=True, exist_ok=True)
     table = out / RESULTS
     rows = {r["key"]: r for r in read_results(table) if r.get("key")}
-    mine = {run.key for run in sweep.runs}
-    kept = {k: r for k, r in rows.items() if k in mine and r.get("status") in DONE}
-    todo = [run for run in sweep.runs if run.key not in kept]
-    for run in sweep.runs:  # a kept row takes its run's place in this sweep
-        if run.key in kept:
-            kept[run.key]["run"] = run.index
+    keys = {run.index: sweep.key(run) for run in sweep.runs}
+    results: dict[str, dict] = {}
+    for run in sweep.runs:  # a kept row takes its run's place and parameters in this sweep
+        row = rows.get(keys[run.index])
+        if row is not None and row.get("status") in DONE:
+            row = {k: v for k, v in row.items() if not k.startswith("param:")}
+            row.update({"run": run.index, **{f"param:{k}": v for k, v in run.params.items()}})
+            results[keys[run.index]] = row
+    todo = [run for run in sweep.runs if keys[run.index] not in results]
     outcome = Outcome(table, skipped=len(sweep.runs) - len(todo))
-    results = dict(kept)
     write_results(table, results.values(), sweep.columns)
-    tasks = [{"index": r.index, "key": r.key, "params": r.params, "scene": r.scene,
+    tasks = [{"index": r.index, "key": keys[r.index], "params": r.params, "scene": r.scene,
               "threads": threads, "duration": sweep.duration, "outputs": list(sweep.outputs),
               "every": sweep.every if sweep.every is not None else 1.0 / 30.0,
-              "folder": str(out / "runs" / f"{r.index:05d}-{r.key[:8]}")} for r in todo]
+              "folder": str(sweep.folder(out, r))} for r in todo]
+    written = time.perf_counter()
     started = time.perf_counter()
     bar = None
     if progress and tasks:
         from .progress import Runs
 
         bar = Runs(len(tasks))
+    slots = [1]  # runs at a time (the engine says how many it has)
 
     def done(row: dict) -> None:
+        nonlocal written
         results[row["key"]] = row
-        write_results(table, results.values(), sweep.columns)
         outcome.ran += 1
+        if outcome.ran == len(tasks) or time.perf_counter() - written > WRITE_EVERY:
+            write_results(table, results.values(), sweep.columns)
+            written = time.perf_counter()
         outcome.statuses[row["status"]] = outcome.statuses.get(row["status"], 0) + 1
         if on_row is not None:
             on_row(row)
         if bar is not None:
             failed = outcome.statuses.get("error", 0) + outcome.statuses.get("blow-up", 0)
-            bar.status(f"{failed} failed" if failed else "")
+            running = min(slots[0], len(tasks) - outcome.ran)
+            bar.status(f"{running} running, {failed} failed")
             line = f"run {row['run']:>4}  {row['status']:<8} {_shown_params(_params(row))}"
             if row["status"] != "ok":
                 line += f": {str(row['error'])[:120]}"
@@ -431,10 +507,11 @@ def run_sweep(sweep: Sweep, out: Path, *, workers: int | None = None, threads: i
             for task in tasks:
                 done(run_one(task))
         else:
-            _on_dask(tasks, done, workers, threads, scheduler)
+            _on_dask(tasks, done, workers, threads, scheduler, slots)
     finally:
         if bar is not None:
             bar.close()
+        write_results(table, results.values(), sweep.columns)  # (an interrupted sweep too)
     outcome.wall = time.perf_counter() - started
     return outcome
 
@@ -444,8 +521,9 @@ def _params(row: dict) -> dict:
 
 
 def _on_dask(tasks: list[dict], done: Callable[[dict], None], workers: int | None, threads: int,
-             scheduler: str | None) -> None:
-    """The tasks on Dask distributed, each row to done() as it comes."""
+             scheduler: str | None, slots: list[int]) -> None:
+    """The tasks on Dask distributed, each row to done() as it comes; slots[0]
+    the runs the cluster takes at a time (its workers' threads)."""
     import contextlib
     import logging
 
@@ -463,8 +541,10 @@ def _on_dask(tasks: list[dict], done: Callable[[dict], None], workers: int | Non
             n = workers if workers is not None else max(1, cores() // max(threads, 1))
             cluster = stack.enter_context(LocalCluster(
                 n_workers=min(n, len(tasks)), threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR))
+                dashboard_address=":0", silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
+        workers_info = client.scheduler_info().get("workers", {})
+        slots[0] = max(1, sum(w.get("nthreads", 1) for w in workers_info.values()))
         futures = {client.submit(run_one, t, key=f"sphfluid-run-{t['key']}-{t['index']}",
                                  pure=False): t for t in tasks}
         for future in as_completed(futures):
@@ -472,9 +552,7 @@ def _on_dask(tasks: list[dict], done: Callable[[dict], None], workers: int | Non
             try:
                 row = future.result()
             except Exception as e:  # noqa: BLE001 (a worker that died: the run's row says so)
-                row = {"run": task["index"], "key": task["key"], "status": "error",
-                       "error": f"{type(e).__name__}: {e}", "threads": task["threads"],
-                       **{f"param:{k}": v for k, v in task["params"].items()}}
+                row = _row(task, "error", f"{type(e).__name__}: {e}")
             done(row)
 
 
@@ -488,7 +566,7 @@ def main(args) -> int:
     out = Path(args.out) if args.out else Path(Path(args.spec).stem + ".sweep")
     if args.dry_run:
         for run in sweep.runs:
-            print(f"run {run.index:>4}  {run.key}  {_shown_params(run.params)}")
+            print(f"run {run.index:>4}  {sweep.key(run)}  {_shown_params(run.params)}")
         print(f"{len(sweep.runs)} runs of {sweep.duration:g} s each; results would go to "
               f"{out / RESULTS}")
         return 0
