@@ -137,3 +137,14 @@ def test_a_run_that_loses_particles_is_left_out(tmp_path):
     assert [(x["run"], x["reason"].split(" (")[0]) for x in meta["sphfluid"]["left_out"]] == [
         (1, "particles left the domain")]
     assert meta["sphfluid"]["runs"] == {"train": [0], "valid": [2], "test": [3]}
+
+
+def test_the_worked_example_is_a_sweep_that_loads():
+    from pathlib import Path
+
+    from sphfluid.sweep import load_sweep
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "datasets" / "dam_break_2d.json"
+    sweep = load_sweep(path)
+    assert len(sweep.runs) == 105 and sum(sweep.dataset["splits"].values()) == 100
+    assert all(-1.0 <= r.params["gravity[0]"] <= 0.0 for r in sweep.runs)
