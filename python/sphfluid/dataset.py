@@ -172,8 +172,6 @@ def build(sweep: Sweep, out: Path, *, workers: int | None = None, threads: int =
         part = taken[k:k + wanted[split]]
         k += len(part)
         split_of[split] = [run.index for run, *_ in part]
-        if wanted[split] == 0:
-            continue
         with replacing(Path(out) / f"{split}.h5") as tmp:
             with h5py.File(tmp, "w") as f:
                 for j, (run, fluid, w, wk) in enumerate(part):
