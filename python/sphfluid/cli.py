@@ -71,6 +71,18 @@ def _engine_options(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _matrix_options(p) -> None:
+    """Where a report's runs run (stress, validate): by default one after another
+    in this process, the tables as ever; on Dask with --workers or --scheduler."""
+    p.add_argument("--workers", type=_count, default=0,
+                   help="run the runs on a local Dask cluster of this many worker processes "
+                        "(pip install \"sphfluid[sweep]\"; default 0: one after another in "
+                        "this process). Wall times then share the cores: compare them within "
+                        "one run")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the runs on an existing Dask scheduler (tcp://host:8786)")
+
+
 def _add_dataset(sub) -> None:
     d = sub.add_parser("dataset", help="trajectories for learned simulators (docs/datasets.md)",
                        description="Run the sweep file SPEC (with its \"dataset\" section) and "
@@ -156,7 +168,9 @@ def _add_view(sub) -> None:
     v.add_argument("--steps-per-frame", type=_count, default=None,
                    help="native steps per drawn frame (default: real time at 60 fps)")
     v.add_argument("--size", default="1000x700", help="window size WxH in pixels")
-    v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    v.add_argument("--threads", type=_count,
+                   help="OpenMP threads per run (default: all cores; 1 on Dask)")
+    _matrix_options(v)
     v.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
                    default="speed", help="colour mode (keys 1-4 switch it live)")
     _add_no_check(v)
@@ -276,6 +290,9 @@ def _add_stress(sub) -> None:
                    help="with --full, also run every scene in this folder as shipped and with "
                         "each method (default: ./scenes; skipped when absent, and then "
                         "--write is refused)")
+    s.add_argument("--threads", type=_count,
+                   help="OpenMP threads per run (default: all cores; 1 on Dask)")
+    _matrix_options(s)
 
 
 def _add_validate(sub) -> None:
@@ -300,7 +317,9 @@ def _add_validate(sub) -> None:
     v.add_argument("--method", choices=VARIANTS,
                    help="run only this method (seed-float: the seed with its pair forces in "
                         "float, solver.pair_precision)")
-    v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
+    v.add_argument("--threads", type=_count,
+                   help="OpenMP threads per run (default: all cores; 1 on Dask)")
+    _matrix_options(v)
     v.add_argument("--out", type=Path, default=Path("docs/validation"),
                    help="folder for the plots (default docs/validation)")
     v.add_argument("--write", type=Path, help="write the tables into this Markdown file")

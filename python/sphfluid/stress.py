@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import engine
 from .bench import machine
 from .metadata import source_line
 from .scene import METHODS, load_scene
@@ -86,8 +87,8 @@ def container(scene: dict) -> tuple[np.ndarray, np.ndarray, bool] | None:
     return p.min(axis=0), p.max(axis=0), closed
 
 
-def run_one(scene: dict, max_wall: float) -> Outcome:
-    sim = Simulation(load_scene(scene))
+def run_one(scene: dict, max_wall: float, threads: int | None = None) -> Outcome:
+    sim = Simulation(load_scene(scene), threads=threads)
     box = container(scene)
     start = time.perf_counter()
     status, detail = STABLE, ""
@@ -130,20 +131,57 @@ def with_precision(d: dict, precision: str) -> dict:
     return d
 
 
-def sweep(kind: str, ks: list[float], dts: list[float | None], spacing: float,
-          duration: float, max_wall: float, log, precision: str = "double") -> dict:
-    results = {}
-    for dt in dts:
-        for k in ks:
-            d = tank_scene(kind, spacing, duration)
+@dataclass(frozen=True, eq=False)
+class Job:
+    """One run of the report: which table it belongs to, its cell there, its scene."""
+
+    part: str  # "dam_break" | "splash" (the sweeps), "violent" or "bundled"
+    cell: tuple  # (k, dt) in a sweep, (method, scene name) or (file, how)
+    scene: dict
+    max_wall: float
+    label: str  # the start of its log line
+    violent: bool = False  # run_violent (a tank at rest runs a number of steps)
+
+
+def sweep_jobs(kind: str, p: Plan, precision: str) -> list[Job]:
+    """The k x dt sweep of one tank, fixed dts first, then the adaptive step."""
+    jobs = []
+    for dt in [*p.dts, None]:
+        for k in p.ks:
+            d = tank_scene(kind, p.spacing, p.duration)
             d["fluid"]["gas_constant"] = k
             d["solver"]["time_step"] = "auto" if dt is None else dt
-            with_precision(d, precision)
-            o = run_one(d, max_wall)
-            results[(k, dt)] = o
-            log(f"{kind:9s} k = {k:8.3g}  dt = {'auto' if dt is None else f'{dt:.0e}':>6s}  "
-                f"{o.status:6s} {o.detail:12s} {o.steps:8d} steps  {o.wall:6.1f} s")
-    return results
+            jobs.append(Job(kind, (k, dt), with_precision(d, precision), p.max_wall,
+                            f"{kind:9s} k = {k:8.3g}  dt = "
+                            f"{'auto' if dt is None else f'{dt:.0e}':>6s} "))
+    return jobs
+
+
+def violent_jobs(p: Plan, precision: str) -> list[Job]:
+    """Each violent scene with each method (four times the sweeps' wall-time cap)."""
+    jobs = []
+    for method in METHODS:
+        for name, d in violent_scenes(p.tank_steps).items():
+            d["solver"]["method"] = method
+            jobs.append(Job("violent", (method, name), with_precision(d, precision),
+                            p.max_wall * 4, f"{method:5s} {name:40s}", violent=True))
+    return jobs
+
+
+def bundled_jobs(folder: Path, max_wall: float, precision: str) -> list[Job]:
+    """Each scene of folder as shipped and with each method."""
+    return [Job("bundled", (name, how), with_precision(d, precision), max_wall,
+                f"{name:18s} {how:32s}")
+            for (name, how), d in bundled_scenes(folder).items()]
+
+
+def run_job(task: tuple[Job, int | None]) -> Outcome:
+    """One job on `threads` OpenMP threads (a task of engine.execute)."""
+    job, threads = task
+    scene = copy.deepcopy(job.scene)
+    if job.violent:
+        return run_violent(scene, job.max_wall, threads)
+    return run_one(scene, job.max_wall, threads)
 
 
 def violent_scenes(tank_steps: int) -> dict[str, dict]:
@@ -202,12 +240,12 @@ def violent_scenes(tank_steps: int) -> dict[str, dict]:
     return out
 
 
-def run_violent(name: str, d: dict, max_wall: float) -> Outcome:
+def run_violent(d: dict, max_wall: float, threads: int | None = None) -> Outcome:
     steps = d.pop("tank_steps", None)
     if steps is None:
-        return run_one(d, max_wall)
+        return run_one(d, max_wall, threads)
     d["duration"] = 1.0
-    sim = Simulation(load_scene(d))
+    sim = Simulation(load_scene(d), threads=threads)
     start = time.perf_counter()
     status, detail = STABLE, ""
     try:
@@ -311,30 +349,41 @@ class Tally:
     lost: int = 0  # particles gone in runs the guard let finish (the silent failures' count)
     walls: int = 0  # particles that crossed a wall, in any run
 
-    def add(self, results: dict) -> None:
-        for o in results.values():
+    def add(self, outcomes) -> None:
+        for o in outcomes:
             self.runs += 1
             self.status[o.status] += 1
             self.lost += o.lost if o.status != CAUGHT else 0
             self.walls += o.through_walls
 
 
-_runs = None  # progress.Runs: the bar over the runs while main runs them
-
-
 def log(line: str) -> None:
-    if _runs is not None:
-        _runs.line(line)
-    else:
-        print(line, file=sys.stderr, flush=True)
+    print(line, file=sys.stderr, flush=True)
 
 
-def log_run(line: str) -> None:
-    """A finished run's line: the bar moves on."""
-    if _runs is not None:
-        _runs.done(line)
-    else:
-        log(line)
+def run_jobs(jobs: list[Job], args) -> list[Outcome]:
+    """Every job, through the engine: one after another in this process by
+    default (--workers 0), else on Dask; each finished run's line as it comes."""
+    from .progress import Runs
+
+    workers, scheduler = getattr(args, "workers", 0), getattr(args, "scheduler", None)
+    threads = getattr(args, "threads", None)  # None in this process: all cores
+    if not engine.in_process(workers, scheduler):
+        threads = threads or 1
+        log(f"{len(jobs)} runs {engine.where(workers, threads, scheduler)}, "
+            f"{threads} thread(s) each")
+    outcomes: list[Outcome | None] = [None] * len(jobs)
+    with Runs(len(jobs)) as runs:
+        def done(place: int, o: Outcome) -> None:
+            job = jobs[place]
+            outcomes[place] = o
+            runs.done(f"{job.label} {o.status:6s} {o.detail}  {o.steps:,} steps  "
+                      f"{o.wall:.1f} s")
+
+        engine.execute(run_job, [(j, threads) for j in jobs], done, workers=workers,
+                       threads=threads or 1, scheduler=scheduler,
+                       name=lambda place: f"stress-{jobs[place].part}")
+    return outcomes  # type: ignore[return-value] (every place filled)
 
 
 def main(args) -> int:
@@ -352,29 +401,24 @@ def main(args) -> int:
             return 2
         log(f"no scene folder {args.scenes}: the bundled scenes will be skipped "
             "(--scenes DIR to run them)")
+    engine.check(getattr(args, "workers", 0), getattr(args, "scheduler", None))
     args.out.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
-    tally = Tally()
     kinds = ("dam_break", "splash")
-    with_bundled = full and args.scenes.is_dir()
-    total = (len(kinds) * len(p.ks) * (len(p.dts) + 1)
-             + len(METHODS) * len(violent_scenes(p.tank_steps))
-             + (len(bundled_scenes(args.scenes)) if with_bundled else 0))
-    global _runs
-    from .progress import Runs
-
-    with Runs(total) as _runs:
-        try:
-            sections = [sweep_section(kind, p, precision, args, tally) for kind in kinds]
-            violent = violent_runs(p, precision)
-            tally.add(violent)
-            bundled = None  # not run
-            if with_bundled:
-                bundled = bundled_runs(args.scenes, p.max_wall, precision)
-                tally.add(bundled)
-        finally:
-            _runs = None
+    jobs = [j for kind in kinds for j in sweep_jobs(kind, p, precision)]
+    jobs += violent_jobs(p, precision)
+    if full and args.scenes.is_dir():
+        jobs += bundled_jobs(args.scenes, p.max_wall, precision)
+    outcomes = run_jobs(jobs, args)
+    tally = Tally()
+    tally.add(outcomes)
+    part: dict[str, dict] = {name: {} for name in (*kinds, "violent", "bundled")}
+    for job, o in zip(jobs, outcomes):
+        part[job.part][job.cell] = o
+    sections = [sweep_section(kind, p, precision, args, part[kind]) for kind in kinds]
+    violent = part["violent"]
+    bundled = part["bundled"] if full and args.scenes.is_dir() else None  # (None: not run)
     report = report_text(args, p, precision, time.perf_counter() - start, tally, sections,
                          violent, bundled)
     print(report)
@@ -387,21 +431,16 @@ def main(args) -> int:
     return 1 if tally.status[SILENT] else 0
 
 
-def sweep_section(kind: str, p: Plan, precision: str, args, tally: Tally) -> str:
-    """Sweep k x dt (fixed, then adaptive) on one tank: its report section and heat map."""
-    fixed = sweep(kind, p.ks, p.dts, p.spacing, p.duration, p.max_wall, log_run, precision)
-    auto = sweep(kind, p.ks, [None], p.spacing, p.duration, p.max_wall, log_run, precision)
-    tally.add(fixed)
-    tally.add(auto)
+def sweep_section(kind: str, p: Plan, precision: str, args, results: dict) -> str:
+    """One tank's k x dt table (fixed dts, then the adaptive step) and heat map."""
     png = args.out / f"stability_{kind}{'' if precision == 'double' else f'_{precision}'}.png"
-    drew = heat_map({**fixed, **auto}, p.ks, p.dts + [None],
+    drew = heat_map(results, p.ks, p.dts + [None],
                     f"seed method{'' if precision == 'double' else ', float pair forces'}, "
                     f"{kind.replace('_', ' ')} (spacing {p.spacing} m, {p.duration} s)", png)
     rows = ["| dt \\ k | " + " | ".join(f"{k:.0e}" for k in p.ks) + " |",
             "|---|" + "---|" * len(p.ks)]
     for dt in p.dts + [None]:
-        res = fixed if dt is not None else auto
-        cells = [sweep_cell(res[(k, dt)]) for k in p.ks]
+        cells = [sweep_cell(results[(k, dt)]) for k in p.ks]
         rows.append(f"| {'auto' if dt is None else f'{dt:.0e}'} | " + " | ".join(cells) + " |")
     link = os.path.relpath(png, args.write.parent if args.write else Path("."))
     return (f"### {kind.replace('_', ' ').capitalize()}\n\n" + "\n".join(rows)
@@ -412,31 +451,6 @@ def sweep_cell(o: Outcome) -> str:
     if o.status == STABLE:
         return "stable"
     return f"caught ({o.detail})" if o.status == CAUGHT else f"**SILENT** ({o.detail})"
-
-
-def violent_runs(p: Plan, precision: str) -> dict[tuple[str, str], Outcome]:
-    """Each violent scene with each method, by (method, scene name)."""
-    violent = {}
-    for method in METHODS:
-        for name, d in violent_scenes(p.tank_steps).items():
-            d["solver"]["method"] = method
-            o = run_violent(name, with_precision(d, precision), p.max_wall * 4)
-            violent[(method, name)] = o
-            log_run(f"{method:5s} {name:40s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
-                f"{o.wall:.1f} s")
-    return violent
-
-
-def bundled_runs(folder: Path, max_wall: float,
-                 precision: str) -> dict[tuple[str, str], Outcome]:
-    """Each scene of folder as shipped and with each method, by (file, how)."""
-    bundled = {}
-    for (name, how), d in bundled_scenes(folder).items():
-        o = run_one(with_precision(d, precision), max_wall)
-        bundled[(name, how)] = o
-        log_run(f"{name:18s} {how:32s} {o.status:6s} {o.detail}  {o.steps:,} steps  "
-            f"{o.wall:.1f} s")
-    return bundled
 
 
 def outcome_row(first: str, second: str, o: Outcome) -> str:
@@ -460,7 +474,9 @@ def report_text(args, p: Plan, precision: str, elapsed: float, tally: Tally,
         scene_rows += [outcome_row(name, how, o) for (name, how), o in bundled.items()] + [""]
     which = "" if precision == "double" else f" (pair forces in {precision})"
     command = ("sphfluid stress " + ("--full" if args.full else "--quick") + f" --out {args.out}"
-               + ("" if precision == "double" else f" --pair-precision {precision}"))
+               + ("" if precision == "double" else f" --pair-precision {precision}")
+               + engine.options(getattr(args, "workers", 0), getattr(args, "threads", None),
+                                getattr(args, "scheduler", None)))
     return "\n".join([
         (f"Machine: {machine()}. {source_line()}. Date: {datetime.date.today().isoformat()}. "
          f"Command: `{command}` ({elapsed:.0f} s)."),

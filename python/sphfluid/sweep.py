@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import engine
 from . import schema as _schema
 from .scene import METHODS, SceneError
 
@@ -396,13 +397,6 @@ def _summary(run) -> dict:
             "particle_steps_per_s": round(run.particle_steps / wall)}
 
 
-def cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def read_results(path: Path) -> list[dict]:
     """The rows of a results table (the values as text), [] if there is none."""
     try:
@@ -455,6 +449,7 @@ def run_sweep(sweep: Sweep, out: Path, *, workers: int | None = None, threads: i
     LocalCluster of `workers` processes (default: the cores / threads), on the
     scheduler at `scheduler`, or in this process (workers=0), each run on
     `threads` OpenMP threads; the table is rewritten after every run."""
+    engine.check(workers, scheduler)
     out = Path(out).resolve()  # (workers elsewhere write to the same path)
     out.mkdir(parents=True, exist_ok=True)
     table = out / RESULTS
@@ -503,11 +498,11 @@ def run_sweep(sweep: Sweep, out: Path, *, workers: int | None = None, threads: i
             bar.done(line)
 
     try:
-        if workers == 0 and scheduler is None:
-            for task in tasks:
-                done(run_one(task))
-        else:
-            _on_dask(tasks, done, workers, threads, scheduler, slots)
+        engine.execute(run_one, tasks, lambda place, row: done(row), workers=workers,
+                       threads=threads, scheduler=scheduler,
+                       failed=lambda place, e: _row(tasks[place], "error",
+                                                    f"{type(e).__name__}: {e}"),
+                       name=lambda place: f"run-{tasks[place]['key']}", slots=slots)
     finally:
         if bar is not None:
             bar.close()
@@ -518,42 +513,6 @@ def run_sweep(sweep: Sweep, out: Path, *, workers: int | None = None, threads: i
 
 def _params(row: dict) -> dict:
     return {k[len("param:"):]: v for k, v in row.items() if k.startswith("param:")}
-
-
-def _on_dask(tasks: list[dict], done: Callable[[dict], None], workers: int | None, threads: int,
-             scheduler: str | None, slots: list[int]) -> None:
-    """The tasks on Dask distributed, each row to done() as it comes; slots[0]
-    the runs the cluster takes at a time (its workers' threads)."""
-    import contextlib
-    import logging
-
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise SweepError(['Dask distributed is not installed: pip install "sphfluid[sweep]" '
-                          "(or run in this process with --workers 0)"]) from None
-    if not tasks:
-        return
-    with contextlib.ExitStack() as stack:
-        if scheduler is not None:
-            client = stack.enter_context(Client(scheduler, timeout="30s"))
-        else:
-            n = workers if workers is not None else max(1, cores() // max(threads, 1))
-            cluster = stack.enter_context(LocalCluster(
-                n_workers=min(n, len(tasks)), threads_per_worker=1, processes=True,
-                dashboard_address=":0", silence_logs=logging.ERROR))
-            client = stack.enter_context(Client(cluster))
-        workers_info = client.scheduler_info().get("workers", {})
-        slots[0] = max(1, sum(w.get("nthreads", 1) for w in workers_info.values()))
-        futures = {client.submit(run_one, t, key=f"sphfluid-run-{t['key']}-{t['index']}",
-                                 pure=False): t for t in tasks}
-        for future in as_completed(futures):
-            task = futures[future]
-            try:
-                row = future.result()
-            except Exception as e:  # noqa: BLE001 (a worker that died: the run's row says so)
-                row = _row(task, "error", f"{type(e).__name__}: {e}")
-            done(row)
 
 
 # ----------------------------------------------------------------- command
@@ -571,9 +530,7 @@ def main(args) -> int:
               f"{out / RESULTS}")
         return 0
     threads = args.threads or 1
-    where = (f"on the scheduler at {args.scheduler}" if args.scheduler else
-             "in this process" if args.workers == 0 else
-             f"on {args.workers or max(1, cores() // threads)} local worker process(es)")
+    where = engine.where(args.workers, threads, args.scheduler)
     print(f"{Path(args.spec).name}: {len(sweep.runs)} runs of {sweep.duration:g} s, {where}, "
           f"{threads} thread(s) each; results in {out / RESULTS}", file=sys.stderr)
     outcome = run_sweep(sweep, out, workers=args.workers, threads=threads,

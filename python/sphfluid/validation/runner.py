@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import engine
 from ..bench import machine
 from .cases import CASES, VARIANTS, Result
 from .peers import BUSY_SHARE, busy_lines, verdict
@@ -85,22 +86,33 @@ def convergence_order(results: list[Result]) -> float:
     return float(np.polyfit(dx, err, 1)[0])
 
 
+def run_case(task: tuple[str, str, int, int | None]) -> Result:
+    """One case at one resolution with one method (a task of engine.execute)."""
+    name, method, n, threads = task
+    return CASES[name].run(n, method, threads=threads)
+
+
 def run_suite(names: list[str], mode: str, methods: list[str], threads: int | None,
-              log) -> list[Result]:
-    results = []
-    for name in names:
-        case = CASES[name]
-        for method in methods:
-            if not case.applies(method):
-                continue
-            for n in case.resolutions[mode]:
-                r = case.run(n, method, threads=threads)
-                results.append(r)
-                outcome = (f"error {r.error:.4g}" if r.ok else
-                           f"FAILED: {r.failure or 'no error could be measured'}")
-                log(f"{name:13s} {method:10s} n={n:<4d} {r.particles:7,d} particles "
-                    f"{r.steps:7,d} steps {r.wall:7.2f} s  {outcome}")
-    return results
+              log, *, workers: int | None = 0, scheduler: str | None = None) -> list[Result]:
+    """Every case, method and resolution, in that order, through the engine: one
+    after another in this process by default, else on Dask (threads: 1 each
+    unless given)."""
+    if not engine.in_process(workers, scheduler):
+        threads = threads or 1
+    tasks = [(name, method, n, threads) for name in names for method in methods
+             if CASES[name].applies(method) for n in CASES[name].resolutions[mode]]
+    results: list[Result | None] = [None] * len(tasks)
+
+    def done(place: int, r: Result) -> None:
+        results[place] = r
+        outcome = (f"error {r.error:.4g}" if r.ok else
+                   f"FAILED: {r.failure or 'no error could be measured'}")
+        log(f"{r.case:13s} {r.method:10s} n={r.n:<4d} {r.particles:7,d} particles "
+            f"{r.steps:7,d} steps {r.wall:7.2f} s  {outcome}")
+
+    engine.execute(run_case, tasks, done, workers=workers, threads=threads or 1,
+                   scheduler=scheduler, name=lambda place: f"validate-{tasks[place][0]}")
+    return results  # type: ignore[return-value] (every place filled)
 
 
 def check_bounds(results: list[Result]) -> list[str]:
@@ -429,6 +441,7 @@ def main(args) -> int:
         timeout = peers.DEFAULT_TIMEOUT if args.peer_timeout is None else args.peer_timeout
         log(f"peers: PySPH {version} on {', '.join(peer_cases) or 'none of these cases'}")
 
+    engine.check(args.workers, args.scheduler)  # (before any run)
     start = time.perf_counter()
     total = sum(len(CASES[name].resolutions[mode]) for name in names for method in methods
                 if CASES[name].applies(method))
@@ -438,7 +451,8 @@ def main(args) -> int:
     from ..progress import Runs
 
     with Runs(total) as runs:
-        results = run_suite(names, mode, methods, args.threads, runs.done)
+        results = run_suite(names, mode, methods, args.threads, runs.done,
+                            workers=args.workers, scheduler=args.scheduler)
         if args.peers:
             results += peers.run_peers(driver, version, names, mode, peer_threads, timeout,
                                        runs.line, done=runs.done)
@@ -449,6 +463,7 @@ def main(args) -> int:
                        + (["--peers"] if args.peers else [])
                        + ([f"--peer-timeout {args.peer_timeout:g}"]
                           if args.peer_timeout is not None else []))
+    command += engine.options(args.workers, args.threads, args.scheduler)
     relative_to = args.write.parent if args.write else Path(".")
     text = report(results, names, mode, command, seconds, args.out, relative_to,
                   peer_cases=peer_cases, peer_threads=peer_threads)
