@@ -114,12 +114,40 @@ def build(sweep: Sweep, out: Path, *, workers: int | None = None, threads: int =
           scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
     """Runs the sweep (what DIR/sweep/ lacks) and writes the dataset; returns
     the metadata written."""
-    import h5py
-
-    from . import __version__
     from .output import replacing
     from .scene import load_scene
 
+    wanted, every = _wanted(sweep)
+    sweep.outputs = tuple(dict.fromkeys([*sweep.outputs, "trajectory"]))
+    sweep.every = every
+    work = Path(out) / "sweep"
+    run_sweep(sweep, work, workers=workers, threads=threads, scheduler=scheduler,
+              progress=progress)
+    taken, left_out = _choose(sweep, work, sum(wanted.values()))
+    Path(out).mkdir(parents=True, exist_ok=True)
+    split_of: dict[str, list[int]] = {}
+    k = 0
+    for split in SPLITS:
+        part = taken[k:k + wanted[split]]
+        k += len(part)
+        split_of[split] = [run.index for run, *_ in part]
+        _write_split(Path(out) / f"{split}.h5", part)
+    first = load_scene(taken[0][0].scene if taken else sweep.runs[0].scene)
+    metadata = _metadata(sweep, first, taken, every)
+    metadata["num_trajs_train"] = len(split_of["train"])
+    metadata["num_trajs_valid"] = len(split_of["valid"])
+    metadata["num_trajs_test"] = len(split_of["test"])
+    metadata["sphfluid"].update(
+        runs=split_of, left_out=left_out,
+        missing={s: wanted[s] - len(split_of[s]) for s in SPLITS if wanted[s] > len(split_of[s])})
+    with replacing(Path(out) / "metadata.json") as tmp:
+        tmp.write_text(json.dumps(metadata, indent=2) + "\n", encoding="utf-8")
+    return metadata
+
+
+def _wanted(sweep: Sweep) -> tuple[dict[str, int], float]:
+    """The trajectories each split wants and the time between frames, checked
+    against the sweep."""
     spec = sweep.dataset
     if spec is None:
         raise SweepError(['dataset: required by sphfluid dataset ({"splits": {"train": N, '
@@ -132,18 +160,23 @@ def build(sweep: Sweep, out: Path, *, workers: int | None = None, threads: int =
     if every > sweep.duration:
         raise SweepError([f"dataset.every: {every:g} s is longer than the runs "
                           f"({sweep.duration:g} s)"], sweep.name)
-    sweep.outputs = tuple(dict.fromkeys([*sweep.outputs, "trajectory"]))
-    sweep.every = every
-    work = Path(out) / "sweep"
-    run_sweep(sweep, work, workers=workers, threads=threads, scheduler=scheduler,
-              progress=progress)
-    rows = {int(r["run"]): r for r in read_results(work / "results.csv")}
+    return wanted, every
 
-    taken: list[tuple[Any, np.ndarray, np.ndarray, np.ndarray]] = []  # run, fluid, walls, types
+
+Taken = tuple[Any, np.ndarray, np.ndarray, np.ndarray]  # run, fluid positions, walls, wall types
+
+
+def _choose(sweep: Sweep, work: Path, needed: int) -> tuple[list[Taken], list[dict]]:
+    """The first `needed` runs that ended ok with the first one's particles, in
+    the sweep's order, and the runs left out on the way, each with why."""
+    from .scene import load_scene
+
+    rows = {int(r["run"]): r for r in read_results(work / "results.csv")}
+    taken: list[Taken] = []
     left_out: list[dict] = []
     count = None  # fluid and wall particles of the first trajectory
     for run in sweep.runs:
-        if len(taken) == sum(wanted.values()):
+        if len(taken) == needed:
             break
         row = rows.get(run.index, {})
         why = "" if row.get("status") == "ok" else (
@@ -160,32 +193,39 @@ def build(sweep: Sweep, out: Path, *, workers: int | None = None, threads: int =
             continue
         count = (positions.shape[1], len(walls))
         taken.append((run, positions, walls, kinds))
+    return taken, left_out
 
-    first = load_scene(taken[0][0].scene if taken else sweep.runs[0].scene)
+
+def _write_split(path: Path, part: list[Taken]) -> None:
+    """One split's HDF5 file: a group per trajectory, fluid then wall particles."""
+    import h5py
+
+    from .output import replacing
+
+    with replacing(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            for j, (_, fluid, w, wk) in enumerate(part):
+                frames = len(fluid)
+                xy = np.concatenate([fluid, np.broadcast_to(w, (frames, *w.shape))], axis=1)
+                g = f.create_group(f"{j:05d}")
+                g.create_dataset("position", data=xy.astype(np.float32), compression="gzip")
+                g.create_dataset("particle_type", data=np.concatenate(
+                    [np.full(fluid.shape[1], FLUID, np.int32), wk]))
+
+
+def _metadata(sweep: Sweep, first, taken: list[Taken], every: float) -> dict[str, Any]:
+    """metadata.json but for the splits' counts and runs (build fills them in)."""
+    from . import __version__
+
     periodic = [bool(p) for p in first.periodic]
     lo, hi = np.array(first.domain_min, float), np.array(first.domain_max, float)
     box = np.where(periodic, hi - lo, 0.0) if any(periodic) else None
-    Path(out).mkdir(parents=True, exist_ok=True)
-    k = 0
-    split_of: dict[str, list[int]] = {}
-    for split in SPLITS:
-        part = taken[k:k + wanted[split]]
-        k += len(part)
-        split_of[split] = [run.index for run, *_ in part]
-        with replacing(Path(out) / f"{split}.h5") as tmp:
-            with h5py.File(tmp, "w") as f:
-                for j, (run, fluid, w, wk) in enumerate(part):
-                    frames = len(fluid)
-                    xy = np.concatenate([fluid, np.broadcast_to(w, (frames, *w.shape))], axis=1)
-                    g = f.create_group(f"{j:05d}")
-                    g.create_dataset("position", data=xy.astype(np.float32), compression="gzip")
-                    g.create_dataset("particle_type", data=np.concatenate(
-                        [np.full(fluid.shape[1], FLUID, np.int32), wk]))
     frames = len(taken[0][1]) if taken else 0
     dt, write_every = _time_step((taken[0][0] if taken else sweep.runs[0]).scene, every)
+    fluid, walls = (taken[0][1].shape[1], len(taken[0][2])) if taken else (0, 0)
     dx = first.spacing
-    metadata = {
-        "case": spec.get("case", "SPH"),
+    return {
+        "case": sweep.dataset.get("case", "SPH"),
         "solver": f"sphfluid {first.method}",
         "dim": 2,
         "dx": dx,
@@ -194,30 +234,19 @@ def build(sweep: Sweep, out: Path, *, workers: int | None = None, threads: int =
         "t_end": sweep.duration,
         "sequence_length_train": frames,
         "sequence_length_test": frames,
-        "num_trajs_train": len(split_of["train"]),
-        "num_trajs_valid": len(split_of["valid"]),
-        "num_trajs_test": len(split_of["test"]),
-        "num_particles_max": sum(count) if count else 0,
+        "num_trajs_train": 0,
+        "num_trajs_valid": 0,
+        "num_trajs_test": 0,
+        "num_particles_max": fluid + walls,
         "periodic_boundary_conditions": periodic,
         "bounds": [[float(lo[0]), float(hi[0])], [float(lo[1]), float(hi[1])]],
         "default_connectivity_radius": float(f"{CONNECTIVITY * dx:.2g}"),
         **_statistics([p for _, p, *_ in taken], box),
         "viscosity": first.viscosity,
         "g_ext_magnitude": float(np.hypot(*first.gravity)),
-        "sphfluid": {
-            "version": __version__,
-            "sweep": sweep.name,
-            "fluid_particles": count[0] if count else 0,
-            "wall_particles": count[1] if count else 0,
-            "runs": split_of,
-            "left_out": left_out,
-            "missing": {s: wanted[s] - len(split_of[s]) for s in SPLITS
-                        if wanted[s] > len(split_of[s])},
-        },
+        "sphfluid": {"version": __version__, "sweep": sweep.name, "fluid_particles": fluid,
+                     "wall_particles": walls, "runs": {}, "left_out": [], "missing": {}},
     }
-    with replacing(Path(out) / "metadata.json") as tmp:
-        tmp.write_text(json.dumps(metadata, indent=2) + "\n", encoding="utf-8")
-    return metadata
 
 
 def main(args) -> int:

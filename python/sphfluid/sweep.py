@@ -169,64 +169,27 @@ def _base_scene(data: dict, source: Path | None) -> tuple[dict | None, str | Non
 def load_sweep(source: str | Path | dict) -> Sweep:
     """A sweep from a file or a dict, with every run it makes and every run's scene
     checked; a SweepError lists what is wrong, by JSON path."""
-    import numpy as np
-
-    from .scene import load_scene
-
-    path = None if isinstance(source, dict) else Path(source)
-    name = "sweep" if path is None else str(path)
-    if path is not None:
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except OSError as e:
-            raise SweepError([f"cannot read it: {e.strerror or e}"], name) from None
-        except ValueError as e:
-            raise SweepError([f"not JSON: {e}"], name) from None
-    else:
-        data = source
+    data, path, name = _read(source)
     found = [f"{p}: {m}" if p else m for p, m in _schema.problems(data, SCHEMA_FILE)]
     if found:
         raise SweepError(found, name)
     base, why = _base_scene(data, path)
     if base is None:
         raise SweepError([f"scene: {why}"], name)
-    problems: list[str] = []
-    rng = np.random.default_rng(data.get("seed", 0))
-    axes: list[tuple[str, list[str | int], list]] = []
-    for key, spec in data.get("vary", {}).items():
-        parsed = parse_path(key)
-        values, why = (_values(spec, data.get("samples"), rng) if parsed is not None
-                       else ([], 'expected a JSON path into the scene such as "solver.cfl" or '
-                                 '"fluid_regions[0].max[1]"'))
-        where = _schema.json_path(["vary", key])
-        if parsed is not None and parsed[0] == "duration":
-            why = 'the runs\' duration is the sweep\'s "duration", not a key to vary'
-        if why:
-            problems.append(f"{where}: {why}")
-        elif (why := _set(json.loads(json.dumps(base)), parsed, values[0])) is not None:
-            problems.append(f"{where}: {why}")
-        else:
-            axes.append((key, parsed, values))
-    for k, method in enumerate(data.get("methods", [])):
-        if method not in METHODS:
-            problems.append(f"methods[{k}]: expected {_schema.one_of(METHODS)}, got "
-                            f"{_schema.shown(method)}{_schema.did_you_mean(method, METHODS)}")
-    duration = data.get("duration", base.get("duration"))
-    if "duration" not in data and "duration" not in base:
-        problems.append("duration: the scene gives no duration: give the runs' duration here")
-    elif not isinstance(duration, (int, float)) or isinstance(duration, bool) or not duration > 0:
-        problems.append(f"scene.duration: expected a number > 0, got {_schema.shown(duration)} "
-                        "(or give the runs' duration here)")
+    axes, problems = _axes(data, base)
+    problems += _method_problems(data.get("methods", []))
+    duration, why = _duration(data, base)
+    if why:
+        problems.append(why)
     if problems:
         raise SweepError(problems, name)
-
     combos = _combinations(axes, data.get("combine", "grid"), name)
     methods = data.get("methods") or [None]
     count = len(combos) * len(methods)
     if count > MAX_RUNS:
         raise SweepError([f"vary: {count:,} runs; at most {MAX_RUNS:,} in one sweep"], name)
     outputs = tuple(dict.fromkeys(["summary", *data.get("outputs", [])]))
-    sweep = Sweep(name=data.get("name", ""), duration=float(duration), outputs=outputs,
+    sweep = Sweep(name=data.get("name", ""), duration=duration, outputs=outputs,
                   every=data.get("every"), dataset=data.get("dataset"),
                   columns=tuple(k for k, _, _ in axes) + (("method",) if data.get("methods") else ()))
     seen: dict[str, int] = {}
@@ -244,11 +207,72 @@ def load_sweep(source: str | Path | dict) -> Sweep:
             text = json.dumps(scene, sort_keys=True)
             sweep.runs.append(Run(len(sweep.runs), params, scene, seen.get(text, 0)))
             seen[text] = seen.get(text, 0) + 1
-    # each scene checked as the loader checks it; a mistake that several runs
-    # share (one of the base scene's) is told once
-    problems = []
+    problems = _scene_problems(sweep.runs)
+    if problems:
+        raise SweepError(problems, name)
+    return sweep
+
+
+def _read(source: str | Path | dict) -> tuple[Any, Path | None, str]:
+    """The sweep file's JSON, its path (None for a dict) and its name for messages."""
+    if isinstance(source, dict):
+        return source, None, "sweep"
+    path = Path(source)
+    try:
+        return json.loads(path.read_text(encoding="utf-8")), path, str(path)
+    except OSError as e:
+        raise SweepError([f"cannot read it: {e.strerror or e}"], str(path)) from None
+    except ValueError as e:
+        raise SweepError([f"not JSON: {e}"], str(path)) from None
+
+
+def _axes(data: dict, base: dict) -> tuple[list[tuple[str, list[str | int], list]], list[str]]:
+    """Each varied key: (key, its parsed path, its values); and the mistakes."""
+    import numpy as np
+
+    rng = np.random.default_rng(data.get("seed", 0))
+    axes, problems = [], []
+    for key, spec in data.get("vary", {}).items():
+        parsed = parse_path(key)
+        values, why = (_values(spec, data.get("samples"), rng) if parsed is not None
+                       else ([], 'expected a JSON path into the scene such as "solver.cfl" or '
+                                 '"fluid_regions[0].max[1]"'))
+        if parsed is not None and parsed[0] == "duration":
+            why = 'the runs\' duration is the sweep\'s "duration", not a key to vary'
+        if not why:
+            why = _set(json.loads(json.dumps(base)), parsed, values[0])
+        if why:
+            problems.append(f"{_schema.json_path(['vary', key])}: {why}")
+        else:
+            axes.append((key, parsed, values))
+    return axes, problems
+
+
+def _method_problems(methods: list) -> list[str]:
+    return [f"methods[{k}]: expected {_schema.one_of(METHODS)}, got "
+            f"{_schema.shown(m)}{_schema.did_you_mean(m, METHODS)}"
+            for k, m in enumerate(methods) if m not in METHODS]
+
+
+def _duration(data: dict, base: dict) -> tuple[float, str | None]:
+    """The runs' duration: the sweep's, else the scene's; or why there is none."""
+    if "duration" not in data and "duration" not in base:
+        return 0.0, "duration: the scene gives no duration: give the runs' duration here"
+    duration = data.get("duration", base.get("duration"))
+    if not isinstance(duration, (int, float)) or isinstance(duration, bool) or not duration > 0:
+        return 0.0, (f"scene.duration: expected a number > 0, got {_schema.shown(duration)} "
+                     "(or give the runs' duration here)")
+    return float(duration), None
+
+
+def _scene_problems(runs: list[Run], most: int = 20) -> list[str]:
+    """Each run's scene checked as the loader checks it; a mistake that several
+    runs share (one of the base scene's) is told once; the first `most`."""
+    from .scene import load_scene
+
+    problems: list[str] = []
     told: set[str] = set()
-    for run in sweep.runs:
+    for run in runs:
         try:
             load_scene(run.scene)
         except SceneError as e:
@@ -256,12 +280,10 @@ def load_sweep(source: str | Path | dict) -> Sweep:
                 if p not in told:
                     told.add(p)
                     problems.append(f"run {run.index} ({_shown_params(run.params)}): {p}")
-        if len(problems) >= 20:
-            problems.append("... (the first 20 problems)")
+        if len(problems) >= most:
+            problems.append(f"... (the first {most} problems)")
             break
-    if problems:
-        raise SweepError(problems, name)
-    return sweep
+    return problems
 
 
 def _combinations(axes, combine: str, name: str) -> list[tuple]:
