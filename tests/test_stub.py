@@ -71,8 +71,9 @@ def _split(params: str) -> list[str]:
 
 def kind(annotation: str) -> str:
     """A type reduced to what both pybind11's spelling and the stub's must agree on."""
-    t = re.sub(r"\b(typing|numpy\.typing|numpy|np|collections\.abc|sphfluid\._core)\.", "",
-               annotation.strip())
+    # (a wheel's core is one of sphfluid._core_baseline, _avx2, _avx512 at run time)
+    t = re.sub(r"\b(typing|numpy\.typing|numpy|np|collections\.abc|"
+               r"sphfluid\._core(_baseline|_avx2|_avx512)?)\.", "", annotation.strip())
     if re.search(r"\b(ArrayLike|NDArray|ndarray)\b", t):
         return "array"
     if t.startswith("Literal[") and ("'" in t or '"' in t):

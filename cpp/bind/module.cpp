@@ -1,4 +1,6 @@
-// The extension module sphfluid._core: only calls the bind_* functions.
+// The extension module sphfluid._core (or, in a build with a core per SIMD
+// level, sphfluid._core_baseline, _core_avx2, _core_avx512; SPHFLUID_MODULE):
+// only calls the bind_* functions.
 #include <pybind11/pybind11.h>
 
 #include "core/types.hpp"
@@ -10,7 +12,7 @@ void bind_solver(py::module_& m);
 void bind_kernels(py::module_& m);
 void bind_walls(py::module_& m);
 
-PYBIND11_MODULE(_core, m) {
+PYBIND11_MODULE(SPHFLUID_MODULE, m) {
   m.doc() = "sphfluid native core: the 2D SPH solver and its kernels";
   m.attr("__version__") = SPHFLUID_VERSION;
 #ifdef _OPENMP
@@ -31,6 +33,7 @@ PYBIND11_MODULE(_core, m) {
 #else
   info["openmp"] = py::none();
 #endif
+  info["simd"] = SPHFLUID_SIMD_PATH;  // native, baseline, avx2 or avx512
   info["real"] = sizeof(sphfluid::Real) == 8 ? "double" : "float";
 #ifdef SPHFLUID_SANITIZE
   info["sanitize"] = SPHFLUID_SANITIZE;  // the checking build's -fsanitize= list

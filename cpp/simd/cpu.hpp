@@ -19,4 +19,32 @@ inline bool prefers_recip_root() {
 #endif
 }
 
+// What the running CPU can execute, for picking a core at import: the
+// instruction sets the avx2 (x86-64-v3) and avx512 (x86-64-v4) cores are
+// compiled for, each true only when the CPU has all of them (and the
+// operating system saves their registers, which __builtin_cpu_supports
+// checks). On other processors: false.
+struct CpuFeatures {
+  bool avx2 = false;    // AVX2, FMA, BMI1/2, F16C, LZCNT, MOVBE
+  bool avx512 = false;  // AVX-512 F, BW, CD, DQ, VL (and the above)
+};
+
+inline CpuFeatures cpu_features() {
+  CpuFeatures f;
+#if defined(__GNUC__) && defined(__x86_64__)
+  __builtin_cpu_init();
+#if !defined(__clang__) && __GNUC__ >= 11  // the levels by name
+  f.avx2 = __builtin_cpu_supports("x86-64-v3");
+  f.avx512 = __builtin_cpu_supports("x86-64-v4");
+#else  // the sets the cores' code uses
+  f.avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+           __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2");
+  f.avx512 = f.avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+             __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+             __builtin_cpu_supports("avx512vl");
+#endif
+#endif
+  return f;
+}
+
 }  // namespace sphfluid::simd

@@ -6,9 +6,13 @@
 """
 from __future__ import annotations
 
-from ._core import __version__, has_openmp
-from .scene import FORMAT, Scene, SceneError, load_scene
-from .simulation import InstabilityError, Simulation
+from ._dispatch import load as _load_core
+
+_load_core()  # sphfluid._core: this build's core, or the fastest of a wheel's for this CPU
+
+from ._core import __version__, has_openmp  # noqa: E402
+from .scene import FORMAT, Scene, SceneError, load_scene  # noqa: E402
+from .simulation import InstabilityError, Simulation  # noqa: E402
 
 __all__ = [
     "FORMAT",

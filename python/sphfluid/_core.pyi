@@ -19,10 +19,12 @@ class _BuildInfo(TypedDict):
     build_type: str  # CMake build type, e.g. "Release"
     march_native: bool  # built with -march=native
     openmp: int | None  # the _OPENMP date, None without OpenMP
+    simd: Literal["native", "baseline", "avx2", "avx512"]  # the SIMD level compiled for
     real: Literal["double", "float"]  # the core's Real
     sanitize: str  # the -fsanitize= list of a checking build, "" otherwise
 
 build_info: _BuildInfo
+
 
 @type_check_only
 class _Pybind11Type(type):

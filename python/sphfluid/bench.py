@@ -25,6 +25,7 @@ import numpy as np
 
 from . import _core
 from .dam_break import GEOMETRY
+from .metadata import target
 from .simulation import Simulation
 
 
@@ -265,7 +266,7 @@ def table(rows: list[dict], command: str) -> str:
     info = _core.build_info
     lines = [
         (f"Machine: {machine()}. Build: {info['compiler']}, {info['build_type']}, "
-         f"-march=native {'on' if info['march_native'] else 'off'}, OpenMP "
+         f"{target()}, OpenMP "
          f"{info['openmp']}, {info['real']}. Date: {datetime.date.today().isoformat()}. "
          "The seed's double pair forces take 1/r from "
          + ("rsqrt14 and two Newton steps" if rows[0].get("recip_root")

@@ -36,7 +36,7 @@ from .bench import (
     variant_scene,
     write_section,
 )
-from .metadata import source_line
+from .metadata import source_line, target
 
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
@@ -379,8 +379,7 @@ def suite_report(args, rows: list[dict], tts: list[dict], repeat: int, start: fl
     rel = os.path.relpath(png, args.write.parent if args.write else Path("."))
     return "\n".join([
         f"Machine: {machine()}. {source_line()}. Build: {info['compiler']}, "
-        f"{info['build_type']}, -march=native "
-        f"{'on' if info['march_native'] else 'off'}, OpenMP {info['openmp']}, {info['real']}. "
+        f"{info['build_type']}, {target()}, OpenMP {info['openmp']}, {info['real']}. "
         f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
         + (f" --sizes {args.sizes}" if args.sizes else "")
         + (f" --repeat {repeat}" if repeat != 3 else "") + "` "

@@ -365,6 +365,8 @@ def _main(args, argv: list[str] | None) -> int:
     from .scene import SceneError
     from .simulation import InstabilityError
 
+    if isinstance(getattr(args, "scene", None), str):
+        args.scene = _bundled(args.scene)
     try:
         if args.command == "run":
             return _run(args)
@@ -427,6 +429,21 @@ def _main(args, argv: list[str] | None) -> int:
               "an output being written is left out)", file=sys.stderr)
         return EXIT_BAD_INPUT
     return 0
+
+
+def _bundled(path: str) -> str:
+    """A scene under scenes/ that is not in this folder (sphfluid installed from a
+    wheel, the command run outside a checkout): the copy the package holds, said
+    on stderr. Any other path as given."""
+    given = Path(path)
+    if given.exists() or given.is_absolute() or not given.parts or given.parts[0] != "scenes":
+        return path
+    packaged = Path(__file__).resolve().parent.joinpath(*given.parts)
+    if not packaged.is_file():
+        return path
+    print(f"({path} is not in this folder: the copy installed with sphfluid, {packaged})",
+          file=sys.stderr)
+    return str(packaged)
 
 
 def _run(args) -> int:

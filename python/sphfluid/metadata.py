@@ -68,9 +68,20 @@ def source_line() -> str:
     info = _core.build_info
     where = "" if commit is None else (
         f"commit {commit[:7]}{', with local changes' if dirty else ''}; ")
-    native = "-march=native" if info["march_native"] else "portable"
     return (f"sphfluid {_core.__version__} ({where}{info['compiler']}, {info['build_type']}, "
-            f"{native}, {info['real']})")
+            f"{target()}, {info['real']})")
+
+
+def target() -> str:
+    """What the running core was compiled for: "-march=native", "portable" (a
+    source build for the compiler's default target) or, in a build with a core
+    per SIMD level (a wheel), "avx512 core" and the like."""
+    from ._dispatch import built_levels
+
+    info = _core.build_info
+    if info["march_native"]:
+        return "-march=native"
+    return f"{info['simd']} core" if built_levels() else "portable"
 
 
 def run_metadata(sim) -> dict[str, Any]:
