@@ -51,6 +51,15 @@ def test_where_and_the_options_that_say_it():
     assert engine.options(0, None, None) == ""
     assert engine.options(2, 1, None) == " --workers 2 --threads 1"
     assert engine.options(0, None, "tcp://h:1") == " --scheduler tcp://h:1"
+    assert [engine.threads_per_run(None, 0, None), engine.threads_per_run(None, 2, None),
+            engine.threads_per_run(None, 0, "tcp://h:1"), engine.threads_per_run(2, 2, None)] == \
+        [None, 1, 1, 2]
+
+
+def test_only_the_matrix_commands_take_the_engine_options(capsys):
+    with pytest.raises(SystemExit):  # (argparse: an unknown option)
+        main(["view", "scene.json", "--workers", "2"])
+    assert "unrecognized arguments: --workers 2" in capsys.readouterr().err
 
 
 def _report_without_times(text: str) -> str:

@@ -168,9 +168,7 @@ def _add_view(sub) -> None:
     v.add_argument("--steps-per-frame", type=_count, default=None,
                    help="native steps per drawn frame (default: real time at 60 fps)")
     v.add_argument("--size", default="1000x700", help="window size WxH in pixels")
-    v.add_argument("--threads", type=_count,
-                   help="OpenMP threads per run (default: all cores; 1 on Dask)")
-    _matrix_options(v)
+    v.add_argument("--threads", type=_count, help="OpenMP threads (default: all cores)")
     v.add_argument("--mode", choices=("speed", "pressure", "density", "surface"),
                    default="speed", help="colour mode (keys 1-4 switch it live)")
     _add_no_check(v)

@@ -39,6 +39,12 @@ def local_workers(workers: int | None, threads: int) -> int:
     return workers if workers is not None else max(1, cores() // max(threads, 1))
 
 
+def threads_per_run(threads: int | None, workers: int | None, scheduler: str | None) -> int | None:
+    """The OpenMP threads of each run: as given, else all cores in this process
+    (None) and 1 on Dask (the runs share the cores)."""
+    return threads if threads or in_process(workers, scheduler) else 1
+
+
 def in_process(workers: int | None, scheduler: str | None) -> bool:
     """Whether the runs run one after another in this process (--workers 0)."""
     return workers == 0 and scheduler is None

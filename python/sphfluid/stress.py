@@ -140,7 +140,6 @@ class Job:
     scene: dict
     max_wall: float
     label: str  # the start of its log line
-    violent: bool = False  # run_violent (a tank at rest runs a number of steps)
 
 
 def sweep_jobs(kind: str, p: Plan, precision: str) -> list[Job]:
@@ -164,7 +163,7 @@ def violent_jobs(p: Plan, precision: str) -> list[Job]:
         for name, d in violent_scenes(p.tank_steps).items():
             d["solver"]["method"] = method
             jobs.append(Job("violent", (method, name), with_precision(d, precision),
-                            p.max_wall * 4, f"{method:5s} {name:40s}", violent=True))
+                            p.max_wall * 4, f"{method:5s} {name:40s}"))
     return jobs
 
 
@@ -179,7 +178,7 @@ def run_job(task: tuple[Job, int | None]) -> Outcome:
     """One job on `threads` OpenMP threads (a task of engine.execute)."""
     job, threads = task
     scene = copy.deepcopy(job.scene)
-    if job.violent:
+    if job.part == "violent":  # (a tank at rest runs a number of steps)
         return run_violent(scene, job.max_wall, threads)
     return run_one(scene, job.max_wall, threads)
 
@@ -366,10 +365,9 @@ def run_jobs(jobs: list[Job], args) -> list[Outcome]:
     default (--workers 0), else on Dask; each finished run's line as it comes."""
     from .progress import Runs
 
-    workers, scheduler = getattr(args, "workers", 0), getattr(args, "scheduler", None)
-    threads = getattr(args, "threads", None)  # None in this process: all cores
+    workers, scheduler = args.workers, args.scheduler
+    threads = engine.threads_per_run(args.threads, workers, scheduler)
     if not engine.in_process(workers, scheduler):
-        threads = threads or 1
         log(f"{len(jobs)} runs {engine.where(workers, threads, scheduler)}, "
             f"{threads} thread(s) each")
     outcomes: list[Outcome | None] = [None] * len(jobs)
@@ -401,7 +399,7 @@ def main(args) -> int:
             return 2
         log(f"no scene folder {args.scenes}: the bundled scenes will be skipped "
             "(--scenes DIR to run them)")
-    engine.check(getattr(args, "workers", 0), getattr(args, "scheduler", None))
+    engine.check(args.workers, args.scheduler)
     args.out.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
@@ -475,8 +473,7 @@ def report_text(args, p: Plan, precision: str, elapsed: float, tally: Tally,
     which = "" if precision == "double" else f" (pair forces in {precision})"
     command = ("sphfluid stress " + ("--full" if args.full else "--quick") + f" --out {args.out}"
                + ("" if precision == "double" else f" --pair-precision {precision}")
-               + engine.options(getattr(args, "workers", 0), getattr(args, "threads", None),
-                                getattr(args, "scheduler", None)))
+               + engine.options(args.workers, args.threads, args.scheduler))
     return "\n".join([
         (f"Machine: {machine()}. {source_line()}. Date: {datetime.date.today().isoformat()}. "
          f"Command: `{command}` ({elapsed:.0f} s)."),

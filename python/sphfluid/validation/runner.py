@@ -97,8 +97,7 @@ def run_suite(names: list[str], mode: str, methods: list[str], threads: int | No
     """Every case, method and resolution, in that order, through the engine: one
     after another in this process by default, else on Dask (threads: 1 each
     unless given)."""
-    if not engine.in_process(workers, scheduler):
-        threads = threads or 1
+    threads = engine.threads_per_run(threads, workers, scheduler)
     tasks = [(name, method, n, threads) for name in names for method in methods
              if CASES[name].applies(method) for n in CASES[name].resolutions[mode]]
     results: list[Result | None] = [None] * len(tasks)
