@@ -134,19 +134,58 @@ void Context::remove_outside_domain() {
   if (!out) return;
   Index first_out = 0;
   while (inside(x[first_out])) ++first_out;
+  removed_ += remove_where(first_out, [&](const Vec2& p) { return !inside(p); });
+}
+
+template <class Out>
+Index Context::remove_where(Index first_out, Out out) {
+  const Index n = size();
   keep_.assign(n, 1);
   Index removed = 0;
   Real v2_out = 0;
   for (Index i = first_out; i < n; ++i)
-    if (!inside(x[i])) {
+    if (out(ps.x[i])) {
       keep_[i] = 0;
       ++removed;
       v2_out += ps.v[i].squaredNorm();
     }
+  if (removed == 0) return 0;
   energy_removed += Real(0.5) * params_.mass * v2_out;
   particles_changed();  // the clearances and the grid's last sort are by storage index
   ps.compact(keep_);
-  removed_ += removed;
+  return removed;
+}
+
+void Context::exchange() {
+  if (flows.has_sinks()) {
+    const Index n = size();
+    const Vec2* x = ps.x.data();
+    int any = 0;
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(| : any)
+    for (Index i = 0; i < n; ++i) any |= flows.sunk(x[i]);
+    if (any) balance.sunk += remove_where(0, [&](const Vec2& p) { return flows.sunk(p); });
+  }
+  new_x_.clear();
+  new_v_.clear();
+  flows.emit(time_, last_dt_, new_x_, new_v_);
+  if (new_x_.empty()) return;
+  const Index n = size(), k = static_cast<Index>(new_x_.size());
+  if (std::int64_t(n) + k >= INT32_MAX)
+    throw std::length_error("the emitters would pass the core's particle limit (2^31 - 1)");
+  Id top = -1;  // fresh ids: one above the largest in use
+  for (Index i = 0; i < n; ++i) top = std::max(top, ps.id[i]);
+  particles_changed();
+  ps.resize(n + k);
+  for (Index i = 0; i < k; ++i) {
+    ps.x[n + i] = new_x_[i];
+    ps.v[n + i] = new_v_[i];
+    ps.id[n + i] = top + 1 + i;
+  }
+  // The new particles' energy enters the guard's budget once they are
+  // evaluated, at the next integration (budget_stale).
+  budget_stale = true;
+  balance.entered += k;
+  if (on_added) on_added(n);
 }
 
 void Context::wrap_positions() {

@@ -7,14 +7,16 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "boundary/flows.hpp"
 #include "boundary/ghosts.hpp"
-#include "core/periodic.hpp"
 #include "boundary/walls.hpp"
+#include "core/periodic.hpp"
 #include "core/params.hpp"
 #include "core/particles.hpp"
 #include "core/timer.hpp"
@@ -42,6 +44,7 @@ class Context {
   ParticleSet ps;
   PeriodicBox box;
   WallSet walls;
+  Flows flows;
   NeighbourSearch search;
   Ghosts ghosts;
   PhaseTimer timer;
@@ -61,6 +64,12 @@ class Context {
   std::int64_t removed() const { return removed_; }
   // Wall crossings the collisions stopped (bounces and stops), over the run.
   std::int64_t wall_crossings() const { return wall_crossings_; }
+  // The particle count's balance: placed (set and added through the API,
+  // less those replaced) + entered (emitters) - sunk - removed = size().
+  struct Balance {
+    std::int64_t placed = 0, entered = 0, sunk = 0;
+  };
+  Balance balance;
   // The clock and the counts as a checkpoint holds them.
   void restore_clock(Real time, std::int64_t steps, Real last_dt, TimeStepLimit limit,
                      std::int64_t removed, std::int64_t wall_crossings) {
@@ -96,12 +105,26 @@ class Context {
   // is known, into a fresh buffer: a non-finite result keeps the half-step
   // velocities (InstabilityError).
   void add_gravity_and_kick(Real half, const Vec2* extra);
-  // Particles that left the domain are removed (and counted), unless the
-  // integration saw every particle inside.
+  // After the drift: particles that left the domain are removed (and
+  // counted), unless the integration saw every particle inside; then the
+  // sinks and emitters act (exchange).
   void leave_domain() {
     if (!all_inside_) remove_outside_domain();
+    if (flows.any()) exchange();
   }
   void remove_outside_domain();
+  // The sinks remove what is inside them, the emitters add this step's rows
+  // (with the step's end time, time() + last_dt()), each counted.
+  void exchange();
+  // Called with the first index of particles just appended (the method gives
+  // them its initial values; set by the Solver).
+  std::function<void(Index)> on_added;
+  // The guard's budget is set anew from the state (by `rebudget`, set by the
+  // Solver) before the next integration's check: emitted particles bring
+  // energy (kinetic, gravitational, the state equation's) that is known once
+  // they are evaluated. Pouring is an energy input, as add_particles is.
+  bool budget_stale = false;
+  std::function<void()> rebudget;
   // Positions moved into the box along its periodic axes.
   void wrap_positions();
   // The particles were replaced, added or removed: the sort starts afresh and
@@ -167,6 +190,10 @@ class Context {
   // vector loop checks; remove_outside_domain's pass is then skipped).
   bool all_inside_ = false;
   std::vector<char> keep_;  // scratch for domain removal
+  std::vector<Vec2> new_x_, new_v_;  // scratch for the emitters' rows
+  // Remove the particles for which out(x, v) holds; returns how many.
+  template <class Out>
+  Index remove_where(Index first_out, Out out);
 };
 
 }  // namespace sphfluid

@@ -52,6 +52,10 @@ void Context::integrate(Real dt, Real kick, const Vec2* shift) {
   } else {
     r = integrate1<Walls, Periodic>(dt, kick, x_new, v_new, shift);
   }
+  if (budget_stale) {  // (from the state before this integration)
+    rebudget();
+    budget_stale = false;
+  }
   const Real kinetic = 0.5 * params_.mass * r.v2_sum;
   if (r.bad || (params_.guard &&
                 !(kinetic + energy_removed <= params_.guard_energy_factor * energy_budget)))

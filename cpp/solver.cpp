@@ -59,6 +59,8 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   ctx_.sound_speed = entry.sound_speed(params_);
   ctx_.step_length = entry.step_length(params_);
   method_ = entry.make(ctx_);
+  ctx_.on_added = [this](Index first) { method_->particles_added(first); };
+  ctx_.rebudget = [this] { compute_energy_budget(); };
   select_step();
   set_state(std::move(positions), std::move(velocities), std::move(ids));
 }
@@ -83,6 +85,10 @@ void Solver::set_wall_velocities(const std::vector<Vec2>& velocities) {
   compute_energy_budget();
 }
 
+void Solver::set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing) {
+  ctx_.flows.set(std::move(emitters), std::move(sinks), spacing);
+}
+
 void Solver::set_threads(int threads) {
   require(threads >= 0, "threads must be >= 0");
   ctx_.set_threads(threads);
@@ -105,6 +111,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
   const Index n = static_cast<Index>(positions.size());
   ParticleSet& ps = ctx_.ps;
   ctx_.particles_changed();
+  ctx_.balance.placed += std::int64_t(n) - size();
   ps.resize(n);
   for (Index i = 0; i < n; ++i) {
     ps.x[i] = positions[i];
@@ -127,6 +134,7 @@ void Solver::add_particles(const std::vector<Vec2>& positions,
   require(top < std::numeric_limits<Id>::max() - Id(k),
           "no fresh ids left: the largest id in use is " + std::to_string(top));
   const Id next = top + 1;
+  ctx_.balance.placed += k;
   ps.resize(n + k);
   for (Index i = 0; i < k; ++i) {
     ps.x[n + i] = positions[i];
@@ -154,6 +162,8 @@ Snapshot Solver::snapshot() const {
   s.last_limit = ctx_.last_limit();
   s.energy_budget = ctx_.energy_budget;
   s.energy_removed = ctx_.energy_removed;
+  s.balance = ctx_.balance;
+  s.emitter_travel = ctx_.flows.travelled();
   s.method = method_->carried();
   return s;
 }
@@ -173,6 +183,7 @@ void Solver::restore(const Snapshot& s) {
                                              s.fields.front().name + "'");
   }
   require(n < static_cast<std::size_t>(INT32_MAX), "checkpoint: too many particles");
+  ctx_.flows.set_travelled(s.emitter_travel);
   method_->restore_carried(s.method);
   const auto& fields = ctx_.ps.fields();
   auto find = [&](const FieldBase* f) -> const Snapshot::FieldData* {
@@ -196,6 +207,7 @@ void Solver::restore(const Snapshot& s) {
                      s.wall_crossings);
   ctx_.energy_budget = s.energy_budget;
   ctx_.energy_removed = s.energy_removed;
+  ctx_.balance = s.balance;
   retried_steps_ = s.retried_steps;
   retry_log_.clear();
 }

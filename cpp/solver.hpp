@@ -36,6 +36,8 @@ struct Snapshot {
   std::int64_t step_count = 0, removed = 0, retried_steps = 0, wall_crossings = 0;
   TimeStepLimit last_limit = TimeStepLimit::kFixed;
   Real energy_budget = 0, energy_removed = 0;
+  Context::Balance balance;
+  std::vector<Real> emitter_travel;  // Flows::travelled
   std::vector<Real> method;
 };
 
@@ -70,6 +72,12 @@ class Solver {
   void set_walls(std::vector<Segment> walls);
   // The walls' surface velocities, one per segment (their tangential parts).
   void set_wall_velocities(const std::vector<Vec2>& velocities);
+  // Replace the emitters and sinks (boundary/flows.hpp); they act from the
+  // next step, the emitters' rows on the lattice of this spacing (m). Throws
+  // std::invalid_argument for one that cannot work.
+  void set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing);
+  const Flows& flows() const { return ctx_.flows; }
+  const Context::Balance& balance() const { return ctx_.balance; }
   void set_threads(int threads);
 
   const SimParams& params() const { return params_; }

@@ -178,14 +178,28 @@ def test_deleting_the_wall_under_the_cursor(tmp_path):
     assert ((0.0, 0.0), (1.0, 0.0)) not in sim.scene.walls
 
 
-def test_pouring_adds_particles(tmp_path):
+def test_pouring_is_an_emitter_that_ctrl_s_saves(tmp_path, monkeypatch):
+    """E starts an emitter at the cursor, E again stops it; Ctrl+S saves it with the
+    scene, and the saved scene pours the same again."""
+    monkeypatch.chdir(tmp_path)
     scene = falling_block(tmp_path)
     size = (500, 400)
-    events = {1: hover_and_press(screen_of(scene, size, (0.5, 0.95)), "K_e")}
+    at = screen_of(scene, size, (0.5, 0.95))
+    ctrl_s = [lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_s, mod=pg.KMOD_CTRL)]
+    events = {1: hover_and_press(at, "K_e"), 20: hover_and_press(at, "K_e"), 22: ctrl_s}
     n0 = sphfluid.Simulation(scene).n_particles
-    sim = scripted_view(scene, events, frames=30, size=size)
-    assert sim.n_particles > n0 + 6
+    sim = scripted_view(scene, events, frames=24, size=size)
+    (e,) = sim.scene.emitters
+    assert e.at == pytest.approx((0.5, 0.95), abs=0.01) and e.stop > e.start
+    assert sim.balance["in"] >= 6 and sim.n_particles == n0 + sim.balance["in"] - \
+        sim.balance["lost"] - sim.balance["sunk"]
     assert np.all(np.isfinite(sim.positions))
+    (saved,) = tmp_path.glob("*_saved.json")
+    again = sphfluid.load_scene(saved)
+    assert again.emitters == sim.scene.emitters
+    replay = sphfluid.Simulation(again)
+    replay.advance_to(e.stop + 0.01)
+    assert replay.balance["in"] == sim.balance["in"]
 
 
 def test_right_drag_pushes_the_fluid(tmp_path):

@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -25,6 +26,35 @@ std::vector<Id> to_ids(const py::object& ids) {
   auto a = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(ids);
   if (!a || a.ndim() != 1) throw std::invalid_argument("ids: expected a 1-D integer array");
   return std::vector<Id>(a.data(), a.data() + a.size());
+}
+
+Vec2 to_point(const py::handle& p) {
+  const auto xy = p.cast<std::array<Real, 2>>();
+  return Vec2(xy[0], xy[1]);
+}
+
+Emitter to_emitter(const py::dict& d) {
+  Emitter e;
+  e.at = to_point(d["at"]);
+  e.direction = to_point(d["direction"]);
+  e.width = d["width"].cast<Real>();
+  e.speed.t = d["times"].cast<std::vector<Real>>();
+  e.speed.value = d["speeds"].cast<std::vector<Real>>();
+  e.start = d["start"].cast<Real>();
+  e.stop = d["stop"].cast<Real>();
+  return e;
+}
+
+Sink to_sink(const py::dict& d) {
+  Sink s;
+  if (d.contains("radius")) {
+    s.centre = to_point(d["centre"]);
+    s.radius = d["radius"].cast<Real>();
+    if (!(s.radius > 0)) throw std::invalid_argument("a circular sink's radius must be > 0");
+  } else {
+    for (const py::handle& p : d["polygon"].cast<py::list>()) s.polygon.push_back(to_point(p));
+  }
+  return s;
 }
 
 // Making a solver.
@@ -105,7 +135,22 @@ void def_editing(SolverClass& c) {
           [](Solver& s, const InArray& v) { s.set_wall_velocities(bind::to_vec2(v, "velocities")); },
           py::arg("velocities"),
           "The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by "
-          "default and after set_walls.");
+          "default and after set_walls.")
+      .def(
+          "set_flows",
+          [](Solver& s, const py::list& emitters, const py::list& sinks, Real spacing) {
+            std::vector<Emitter> es;
+            std::vector<Sink> ks;
+            for (const py::handle& item : emitters) es.push_back(to_emitter(item.cast<py::dict>()));
+            for (const py::handle& item : sinks) ks.push_back(to_sink(item.cast<py::dict>()));
+            s.set_flows(std::move(es), std::move(ks), spacing);
+          },
+          py::arg("emitters"), py::arg("sinks"), py::arg("spacing"),
+          "Replace the emitters and sinks; they act from the next step, the emitters' rows "
+          "on the lattice of `spacing` (m). An emitter is a dict "
+          "with 'at' [x, y], 'direction' [dx, dy], 'width' (m), 'times' and 'speeds' (a "
+          "table, linear between its times), 'start' and 'stop' (s); a sink one with "
+          "'polygon' [[x, y], ...] or 'centre' [x, y] and 'radius'.");
 }
 
 // A checkpoint as a dict: "fields" (name -> an array of the field's numbers,
@@ -133,6 +178,10 @@ py::dict snapshot_to_dict(const Snapshot& s) {
   d["retried_steps"] = s.retried_steps;
   d["energy_budget"] = s.energy_budget;
   d["energy_removed"] = s.energy_removed;
+  d["particles_placed"] = s.balance.placed;
+  d["particles_in"] = s.balance.entered;
+  d["particles_sunk"] = s.balance.sunk;
+  d["emitter_travel"] = s.emitter_travel;
   d["method"] = s.method;
   return d;
 }
@@ -168,6 +217,10 @@ Snapshot snapshot_from_dict(const py::dict& d) {
   s.retried_steps = d["retried_steps"].cast<std::int64_t>();
   s.energy_budget = d["energy_budget"].cast<Real>();
   s.energy_removed = d["energy_removed"].cast<Real>();
+  s.balance.placed = d["particles_placed"].cast<std::int64_t>();
+  s.balance.entered = d["particles_in"].cast<std::int64_t>();
+  s.balance.sunk = d["particles_sunk"].cast<std::int64_t>();
+  s.emitter_travel = d["emitter_travel"].cast<std::vector<Real>>();
   s.method = d["method"].cast<std::vector<Real>>();
   return s;
 }
@@ -221,6 +274,18 @@ void def_diagnostics(SolverClass& c) {
       .def_property_readonly("step_count", &Solver::step_count)
       .def_property_readonly("removed_particles", &Solver::removed,
                              "particles removed for leaving the domain")
+      .def_property_readonly(
+          "balance",
+          [](const Solver& s) {
+            py::dict d;
+            d["placed"] = s.balance().placed;
+            d["in"] = s.balance().entered;
+            d["sunk"] = s.balance().sunk;
+            d["lost"] = s.removed();
+            return d;
+          },
+          "the particle count's balance: 'placed' (set and added through the API, less "
+          "those replaced) + 'in' (emitters) - 'sunk' - 'lost' (left the domain) = n_particles")
       .def_property_readonly("wall_crossings", &Solver::wall_crossings,
                              "wall crossings the wall collisions stopped (each bounce, and "
                              "each stop in front of a wall), over the run")

@@ -144,6 +144,13 @@ class Solver(metaclass=_Pybind11Type):
     def set_wall_velocities(self, velocities: ArrayLike) -> None:
         """The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by
         default and after set_walls."""
+    def set_flows(self, emitters: list[dict[str, Any]], sinks: list[dict[str, Any]],
+                  spacing: float) -> None:
+        """Replace the emitters and sinks; they act from the next step, the emitters'
+        rows on the lattice of `spacing` (m). An emitter is
+        a dict with 'at' [x, y], 'direction' [dx, dy], 'width' (m), 'times' and
+        'speeds' (a table, linear between its times), 'start' and 'stop' (s); a sink
+        one with 'polygon' [[x, y], ...] or 'centre' [x, y] and 'radius'."""
     def snapshot(self) -> dict[str, Any]:
         """Everything the next step depends on: 'fields' (each particle field's numbers
         in storage order), the clock and counts, the guard's budget, 'method' (the
@@ -199,6 +206,10 @@ class Solver(metaclass=_Pybind11Type):
     @property
     def removed_particles(self) -> int:
         """Particles removed for leaving the domain."""
+    @property
+    def balance(self) -> dict[str, int]:
+        """The particle count's balance: 'placed' + 'in' (emitters) - 'sunk' - 'lost'
+        (left the domain) = n_particles."""
     @property
     def wall_crossings(self) -> int:
         """Wall crossings the wall collisions stopped (each bounce, and each stop in front of

@@ -121,6 +121,19 @@ class Region:
             return 2 * math.pi * self.radius
         return sum(math.dist(a, b) for a, b in _edges(self.points))
 
+    def to_dict(self) -> dict:
+        """As the scene format writes it (a velocity only when it is not zero)."""
+        d: dict[str, Any] = {"shape": self.shape}
+        if self.shape == "rectangle":
+            d["min"], d["max"] = list(self.points[0]), list(self.points[1])
+        elif self.shape == "circle":
+            d["center"], d["radius"] = list(self.points[0]), self.radius
+        else:
+            d["points"] = [list(p) for p in self.points]
+        if self.velocity != (0.0, 0.0):
+            d["velocity"] = list(self.velocity)
+        return d
+
     def contains(self, x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
         if self.shape == "rectangle":
             (x0, y0), (x1, y1) = self.points
@@ -167,6 +180,8 @@ class Scene:
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
+    emitters: tuple = ()  # of flows.Emitter: nozzles emitting jets (extension)
+    sinks: tuple = ()  # of Region: regions removing the particles entering them (extension)
     source: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -199,18 +214,7 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The scene as a JSON-ready dict that loads back to an equal Scene."""
-        regions = []
-        for r in self.regions:
-            d: dict[str, Any] = {"shape": r.shape}
-            if r.shape == "rectangle":
-                d["min"], d["max"] = list(r.points[0]), list(r.points[1])
-            elif r.shape == "circle":
-                d["center"], d["radius"] = list(r.points[0]), r.radius
-            else:
-                d["points"] = [list(p) for p in r.points]
-            if r.velocity != (0.0, 0.0):
-                d["velocity"] = list(r.velocity)
-            regions.append(d)
+        regions = [r.to_dict() for r in self.regions]
         out: dict[str, Any] = {
             "format": FORMAT,
             "name": self.name,
@@ -257,6 +261,10 @@ class Scene:
             out["duration"] = self.duration
         if self.probes is not None:
             out["probes"] = self.probes.to_dict()
+        if self.emitters:
+            out["emitters"] = [e.to_dict() for e in self.emitters]
+        if self.sinks:
+            out["sinks"] = [r.to_dict() for r in self.sinks]
         return out
 
 
@@ -399,6 +407,7 @@ class _Validator:
 
             n_segments = None if any(p.startswith("walls") for p in self.refused) else len(walls)
             probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
+        emitters, sinks = self.flows(d, domain, res, walls)
 
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
@@ -423,8 +432,14 @@ class _Validator:
                       artificial_viscosity=fluid.alpha, periodic=domain.periodic,
                       background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
                       density=solver.density, density_diffusion=solver.density_diffusion,
-                      shifting=solver.shifting, probes=probes, source=self.source)
+                      shifting=solver.shifting, probes=probes, emitters=tuple(emitters),
+                      sinks=tuple(sinks), source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
+        if sinks:
+            from .flows import check_sinks
+
+            check_sinks(self, sinks, domain.lo, domain.hi,
+                        None if self.problems else scene.lattice_points()[0])
         self.raise_problems()
         return scene
 
@@ -465,6 +480,19 @@ class _Validator:
                                           DEFAULT_DENSITY_DIFFUSION),
             shifting=shifting if isinstance(shifting, str) or shifting is None
             else float(shifting))
+
+    def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list
+              ) -> tuple[list, list[Region]]:
+        """The emitters and sinks (extensions; flows.py)."""
+        if "emitters" not in d and "sinks" not in d:
+            return [], []
+        from .flows import read_emitters
+
+        emitters = read_emitters(self, self.items(d, "emitters"), domain.lo, domain.hi, res.dx,
+                                 walls)
+        sinks = [r for i, item in enumerate(self.items(d, "sinks"))
+                 if (r := self.region(item, f"sinks[{i}]")) is not None]
+        return emitters, sinks
 
     def fluid(self, fl: dict) -> _Fluid:
         p = "fluid."

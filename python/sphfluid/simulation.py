@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from . import _core
+from .flows import Emitter, sink_to_core
 from .scene import AUTO_SHIFTING, Scene, load_scene
 
 InstabilityError = _core.InstabilityError
@@ -23,19 +24,22 @@ RETRIES = 5  # on_instability "retry": dt/2, dt/4, ... dt/32 before giving up
 
 def expected_top_speed(scene: Scene) -> float:
     """The fastest the fluid is expected to move, m/s: free fall from the top of the
-    fluid to the bottom of the domain, the regions' initial speeds, the capillary
-    speed sqrt(sigma / (rho0 dx)), and at least 0.1 m/s."""
+    fluid to the bottom of the domain, the regions' initial speeds, an emitter's jet
+    falling from its nozzle to the bottom, the capillary speed sqrt(sigma / (rho0 dx)),
+    and at least 0.1 m/s."""
     g = math.hypot(*scene.gravity)
     speeds = [0.1]
+    lo, hi = scene.domain_min, scene.domain_max
+    up = -np.asarray(scene.gravity) / g if g > 0 else np.zeros(2)
+    bottom = min(float(np.dot(np.asarray(c), up)) for c in [lo, hi, (lo[0], hi[1]), (hi[0], lo[1])])
     if scene.regions and g > 0:
-        up = -np.asarray(scene.gravity) / g
         top = max(float(np.dot(np.asarray(c), up)) for r in scene.regions
                   for c in r.bounds())
-        lo, hi = scene.domain_min, scene.domain_max
-        bottom = min(float(np.dot(np.asarray(c), up))
-                     for c in [lo, hi, (lo[0], hi[1]), (hi[0], lo[1])])
         speeds.append(math.sqrt(2 * g * max(top - bottom, 0.0)))
     speeds += [math.hypot(*r.velocity) for r in scene.regions]
+    for e in scene.emitters:
+        fall = max(float(np.dot(np.asarray(e.at), up)) - bottom, 0.0)
+        speeds.append(math.sqrt(e.top_speed() ** 2 + 2 * g * fall))
     if scene.surface_tension > 0:
         speeds.append(math.sqrt(scene.surface_tension / (scene.rest_density * scene.spacing)))
     return max(speeds)
@@ -197,7 +201,13 @@ class Simulation:
                                     _wall_array(self.scene))
         if self.scene.wall_velocities:  # sliding surfaces (docs/method-wcsph.md, W25)
             self._solver.set_wall_velocities(np.asarray(self.scene.wall_velocities, float))
-        self._initial_count = len(pos)
+        if self.scene.emitters or self.scene.sinks:
+            self._set_flows()
+
+    def _set_flows(self) -> None:
+        dx = self.scene.spacing
+        self._solver.set_flows([e.to_core(dx) for e in self.scene.emitters],
+                               [sink_to_core(r) for r in self.scene.sinks], dx)
 
     # -- stepping
     @property
@@ -354,6 +364,38 @@ class Simulation:
         vel = np.zeros_like(pos) if velocities is None else _array(velocities, "velocities",
                                                                   (-1, 2))
         self._solver.add_particles(pos, vel)
+
+    @_one_thread
+    def add_emitter(self, emitter: Emitter) -> None:
+        """Add an emitter (``flows.Emitter``) to the scene; it emits from the next
+        step on (from its start time). Raises SceneError naming what is wrong, the
+        run unchanged."""
+        self.set_emitters([*self.scene.emitters, emitter])
+
+    @_one_thread
+    def set_emitters(self, emitters) -> None:
+        """Replace the scene's emitters (a sequence of ``flows.Emitter``); checked as
+        a scene's (SceneError), effective from the next step. An emitter kept from
+        before starts a new row a spacing from its last (its travel is reset). The
+        run's speed of sound stays what the scene's start gave (wcsph: a jet faster
+        than the fluid was expected to move compresses more; a scene file with the
+        emitters in it accounts for them)."""
+        data = self.scene.to_dict()
+        data["emitters"] = [e.to_dict() for e in emitters]
+        scene = load_scene(data)  # every check a scene file gets
+        self.scene = dataclasses.replace(self.scene, emitters=scene.emitters)
+        self._set_flows()
+
+    @property
+    def balance(self) -> dict:
+        """The particle count's balance: 'placed' (the scene's fluid, and what
+        ``set_state`` and ``add_particles`` placed, less what they replaced), 'in'
+        (emitted), 'out' (outlets; 0), 'sunk', 'lost' (left the domain) and 'now';
+        placed + in - out - sunk - lost = now, exactly. Times ``particle_mass``, the
+        mass balance."""
+        b = dict(self._solver.balance)
+        return {"placed": b["placed"], "in": b["in"], "out": 0, "sunk": b["sunk"],
+                "lost": b["lost"], "now": self.n_particles}
 
     @_one_thread
     def set_walls(self, walls) -> None:
@@ -549,6 +591,9 @@ class Simulation:
             "pair_precision": "float" if self._solver.float_pairs else "double",
             "n_particles": self.n_particles,
             "removed_particles": self.removed_particles,
+            # particles in (emitters), out (outlets), sunk and lost (= removed_particles)
+            **{f"particles_{k}": v for k, v in self.balance.items()
+               if k in ("in", "out", "sunk", "lost")},
             "wall_crossings": self.wall_crossings,
             "kinetic_energy": 0.5 * self.particle_mass * float(speed2.sum()),  # J per m depth
             "max_speed": float(math.sqrt(speed2.max())) if len(v) else 0.0,

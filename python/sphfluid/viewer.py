@@ -6,13 +6,15 @@ numpy arrays into a pixel buffer, never one Python call per particle.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .scene import Scene, load_scene
+from .flows import Emitter
+from .scene import Scene, SceneError, load_scene
 from .simulation import InstabilityError, Simulation
 from .surface import polygons as liquid_polygons
 
@@ -33,7 +35,7 @@ MODE_LABELS = {
 HELP = [
     "left-drag  draw a wall (ends snap to wall ends)",
     "X or Delete  delete the wall under the cursor",
-    "E  start / stop pouring fluid at the cursor",
+    "E  start / stop pouring at the cursor (an emitter Ctrl+S saves)",
     "right-drag  push the fluid",
     "wheel  zoom at the cursor   middle-drag  pan   0  fit the domain",
     "space  pause / run",
@@ -61,6 +63,8 @@ SEQUENTIAL = ramp([[20, 60, 160], [30, 130, 220], [60, 200, 230], [180, 240, 250
 LIQUID = (40, 110, 200)  # the liquid mode's body
 RIM = (180, 230, 255)  # and its surface
 PROBE = (255, 170, 40)  # the scene's probes
+EMITTER = (120, 230, 255)  # the scene's emitters
+SINK = (235, 90, 200)  # the scene's sinks
 SMOOTH_FINE = 10_000  # particles up to which the liquid's grid is half a spacing
 DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
                   [200, 40, 40]])
@@ -156,9 +160,41 @@ class Renderer:
         for a, b in self.sim.scene.walls:
             (sx, sy) = self.camera.to_screen(np.array([a, b]))
             self.pygame.draw.line(surface, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
+        self.draw_flows(surface)
         self.draw_probes(surface)
         if self.mode != "surface":
             self.draw_colour_bar(surface)
+
+    def draw_flows(self, surface) -> None:
+        """The sinks, outlined, and the emitters: each nozzle's row as a bar with an
+        arrow along the jet, bright while it emits, dim before its start and after
+        its stop."""
+        pg, cam, scene = self.pygame, self.camera, self.sim.scene
+        for r in scene.sinks:
+            if r.shape == "circle":
+                (cx, cy), = r.points
+                ring = np.array([[cx + r.radius * np.cos(a), cy + r.radius * np.sin(a)]
+                                 for a in np.linspace(0, 2 * np.pi, 48, endpoint=False)])
+            elif r.shape == "rectangle":
+                (x0, y0), (x1, y1) = r.points
+                ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+            else:
+                ring = np.asarray(r.points, float)
+            pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 2)
+        t, dx = self.sim.time, scene.spacing
+        for e in scene.emitters:
+            on = e.start <= t and (e.stop is None or t < e.stop)
+            colour = EMITTER if on else tuple(c // 2 for c in EMITTER)
+            row = e.row(dx)
+            d = e.unit()
+            across = np.array([-d[1], d[0]]) * 0.5 * dx
+            ends = np.array([row[0] - across, row[-1] + across])
+            sx, sy = cam.to_screen(ends)
+            pg.draw.line(surface, colour, (sx[0], sy[0]), (sx[1], sy[1]), 4)
+            tip = np.asarray(e.at) + 3 * dx * d
+            arrow = np.array([e.at, tip, tip - dx * d + across * 2, tip, tip - dx * d - across * 2])
+            ax, ay = cam.to_screen(arrow)
+            pg.draw.lines(surface, colour, False, list(zip(ax, ay)), 2)
 
     def draw_probes(self, surface) -> None:
         """The scene's probes, named: a ring at each point, a dashed vertical line
@@ -276,8 +312,7 @@ class Editor:
         self.sim = sim
         self.renderer = renderer
         self.start: tuple[float, float] | None = None  # a wall being drawn (world, m)
-        self.emitter: tuple[float, float] | None = None
-        self.last_emit = -np.inf
+        self.emitter: int | None = None  # the scene's emitter pouring now (E)
 
     def world(self, px: float, py: float) -> tuple[float, float]:
         return self.renderer.camera.to_world(px, py)
@@ -331,22 +366,25 @@ class Editor:
         self.sim.remove_wall(i)
         return True
 
-    def toggle_emitter(self, px: float, py: float) -> None:
-        self.emitter = None if self.emitter else self.world(px, py)
-        self.last_emit = -np.inf
-
-    def emit(self) -> int:
-        """Pour a row of three particles whenever the last row has moved one spacing."""
-        if self.emitter is None:
-            return 0
-        dx = self.sim.scene.spacing
-        if self.sim.time - self.last_emit < dx / self.EMIT_SPEED:
-            return 0
-        self.last_emit = self.sim.time
-        x0, y0 = self.emitter
-        pos = np.array([[x0 + i * dx, y0] for i in (-1, 0, 1)])
-        self.sim.add_particles(pos, np.tile([0.0, -self.EMIT_SPEED], (3, 1)))
-        return 3
+    def toggle_emitter(self, px: float, py: float) -> str:
+        """Start pouring at the cursor: an emitter in the scene from now on, straight
+        down, three spacings wide; again: it stops now. Ctrl+S saves it with the
+        scene. Returns what happened, for the status line."""
+        sim = self.sim
+        if self.emitter is not None:
+            emitters = list(sim.scene.emitters)
+            emitters[self.emitter] = dataclasses.replace(emitters[self.emitter], stop=sim.time)
+            self.emitter = None
+            sim.set_emitters(emitters)
+            return "pouring stopped"
+        e = Emitter(at=self.world(px, py), width=3 * sim.scene.spacing, speed=self.EMIT_SPEED,
+                    start=sim.time, name=f"pour {len(sim.scene.emitters) + 1}")
+        try:
+            sim.add_emitter(e)
+        except SceneError as err:
+            return f"cannot pour there: {str(err).splitlines()[-1].strip()}"
+        self.emitter = len(sim.scene.emitters) - 1
+        return "pouring"
 
     def push(self, px: float, py: float, dpx: float, dpy: float) -> None:
         """Drag fluid near the cursor along with it: a smooth weight (1 - r^2/R^2)^2
@@ -515,8 +553,7 @@ class _Window:
             if editor.delete_wall_at(*self.cursor):
                 self.message = f"wall deleted ({len(sim.scene.walls)} walls)"
         elif key == pg.K_e:
-            editor.toggle_emitter(*self.cursor)
-            self.message = "pouring" if editor.emitter else "pouring stopped"
+            self.message = editor.toggle_emitter(*self.cursor)
         elif key == pg.K_p:
             self.shots += 1
             name = f"{self.stem}_{self.shots:03d}.png"
@@ -531,7 +568,6 @@ class _Window:
         todo = 1 if self.single else (0 if self.paused or unstable else self.n_steps)
         if not todo:
             return
-        self.editor.emit()
         t0 = time.perf_counter()
         try:
             sim.step(todo)
@@ -554,9 +590,6 @@ class _Window:
         if editor.start is not None:  # the wall being drawn
             a = camera.to_screen(np.asarray(editor.start))
             pg.draw.line(screen, (255, 210, 90), a, self.cursor, 2)
-        if editor.emitter is not None:
-            e = camera.to_screen(np.asarray(editor.emitter))
-            pg.draw.circle(screen, (255, 210, 90), (int(e[0]), int(e[1])), 6, 2)
         font = self.renderer.font
         screen.blit(font.render(self.status(fps), True, TEXT), (8, 5))
         wx, wy = camera.to_world(*self.cursor)

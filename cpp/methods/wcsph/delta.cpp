@@ -76,11 +76,17 @@ void DeltaWcsphMethod::particles_added(Index first) {
   auto column = [&](Index i) {
     return static_cast<std::int64_t>(std::floor(ps.x[i].dot(across) / dx));
   };
+  // The highest particle of each new particle's column (of every column for
+  // a new fluid; an emitter's rows are in a few).
   std::unordered_map<std::int64_t, Real> top;
-  for (Index i = 0; i < n; ++i) {
-    const Real z = ps.x[i].dot(up);
-    auto [it, fresh] = top.emplace(column(i), z);
-    if (!fresh) it->second = std::max(it->second, z);
+  for (Index i = first; i < n; ++i) top.emplace(column(i), ps.x[i].dot(up));
+  for (Index i = 0; i < first; ++i) {
+    auto it = top.find(column(i));
+    if (it != top.end()) it->second = std::max(it->second, ps.x[i].dot(up));
+  }
+  for (Index i = first; i < n; ++i) {
+    Real& z = top[column(i)];
+    z = std::max(z, ps.x[i].dot(up));
   }
   const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
   for (Index i = first; i < n; ++i) {

@@ -1,0 +1,173 @@
+"""Emitters and sinks: the scene's ``"emitters"`` and ``"sinks"`` (extensions).
+
+An emitter is a nozzle that emits a jet on the lattice of the scene's spacing:
+rows of round(width / spacing) particles across, a new row whenever the last
+has travelled one spacing, at a speed that is a constant or a table of
+(time, speed) pairs, linear between them, from ``start`` to ``stop``. A sink
+is a region (a rectangle, circle or polygon) that removes every particle
+that enters it. The core applies both once a step after the drift, for every
+method (``cpp/boundary/flows.hpp``), and counts what enters and what is sunk
+(``Simulation.balance``). docs/scene-format.md, "Emitters and sinks".
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+DEFAULT_DIRECTION = (0.0, -1.0)  # straight down
+
+
+@dataclass(frozen=True)
+class Emitter:
+    """A nozzle centred at ``at``, ``width`` m across, emitting along ``direction``."""
+
+    at: tuple  # (x, y), m
+    direction: tuple = DEFAULT_DIRECTION  # any length; the core normalises it
+    width: float | None = None  # m; None: one spacing (a single particle per row)
+    speed: float | tuple = 1.0  # m/s, or ((t, speed), ...) in increasing t
+    start: float = 0.0  # s
+    stop: float | None = None  # s; None: never
+    name: str = ""
+
+    def table(self) -> tuple[list[float], list[float]]:
+        """The speed as (times, speeds); a constant is one pair at t = 0."""
+        if isinstance(self.speed, tuple):
+            return [float(t) for t, _ in self.speed], [float(s) for _, s in self.speed]
+        return [0.0], [float(self.speed)]
+
+    def top_speed(self) -> float:
+        return max(self.table()[1])
+
+    def unit(self) -> np.ndarray:
+        d = np.asarray(self.direction, float)
+        return d / np.hypot(*d)
+
+    def row(self, spacing: float) -> np.ndarray:
+        """The positions (k, 2) of a row as it leaves the nozzle."""
+        width = spacing if self.width is None else self.width
+        count = max(1, round(width / spacing))
+        d = self.unit()
+        across = np.array([-d[1], d[0]])
+        offsets = (np.arange(count) + 0.5 - 0.5 * count) * spacing
+        return np.asarray(self.at, float) + offsets[:, None] * across
+
+    def to_core(self, spacing: float) -> dict:
+        times, speeds = self.table()
+        return {"at": list(self.at), "direction": list(self.direction),
+                "width": spacing if self.width is None else self.width,
+                "times": times, "speeds": speeds, "start": self.start,
+                "stop": math.inf if self.stop is None else self.stop}
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {"at": list(self.at), "direction": list(self.direction)}
+        if self.name:
+            out = {"name": self.name, **out}
+        if self.width is not None:
+            out["width"] = self.width
+        out["speed"] = ([list(p) for p in self.speed] if isinstance(self.speed, tuple)
+                        else self.speed)
+        if self.start:
+            out["start"] = self.start
+        if self.stop is not None:
+            out["stop"] = self.stop
+        return out
+
+
+def sink_to_core(region) -> dict:
+    """A sink (a scene.Region) as the core takes it."""
+    if region.shape == "circle":
+        return {"centre": list(region.points[0]), "radius": region.radius}
+    if region.shape == "rectangle":
+        (x0, y0), (x1, y1) = region.points
+        return {"polygon": [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]}
+    return {"polygon": [list(p) for p in region.points]}
+
+
+# --------------------------------------------------------------------------- validation
+
+def read_emitters(v, raw: list, lo, hi, dx: float | None, walls: list) -> list[Emitter]:
+    """The scene's "emitters", which the JSON Schema has checked, read with the
+    scene validator ``v``: what the schema cannot say as problems by JSON path
+    (a zero direction, a speed table out of order, a stop before the start, a
+    nozzle outside the domain or crossed by a wall). lo, hi: the domain's
+    corners and dx the spacing (None after a problem there)."""
+    out = []
+    for i, item in enumerate(raw):
+        path = f"emitters[{i}]"
+        if not (isinstance(item, dict) and v.ok(path)):
+            continue
+        n_before = len(v.problems)
+        at = v.point(item, "at", path)
+        direction = v.point(item, "direction", path, DEFAULT_DIRECTION)
+        if not (math.isfinite(math.hypot(*direction)) and math.hypot(*direction) > 0):
+            v.fail(f"{path}.direction", "must not be [0, 0]")
+        speed = _speed(v, item["speed"], f"{path}.speed") if "speed" in item else 1.0
+        start = v.number(item, "start", f"{path}.", 0.0)
+        stop = v.number(item, "stop", f"{path}.")
+        if stop is not None and not stop > start:
+            v.fail(f"{path}.stop", f"must be after start ({start:g} s), got {stop:g}")
+        width = v.number(item, "width", f"{path}.")
+        if len(v.problems) > n_before or speed is None:
+            continue
+        e = Emitter(at=at, direction=direction, width=width, speed=speed, start=start,
+                    stop=stop, name=str(item.get("name", "")))
+        if dx:
+            _check_nozzle(v, e, path, lo, hi, dx, walls)
+        out.append(e)
+    return out
+
+
+def _speed(v, raw, path: str) -> float | tuple | None:
+    """A speed: a number, or [[t, speed], ...] with t increasing."""
+    if not isinstance(raw, list):
+        return float(raw)
+    pairs = tuple((float(t), float(s)) for t, s in raw)
+    for k in range(1, len(pairs)):
+        if not pairs[k][0] > pairs[k - 1][0]:
+            v.fail(f"{path}[{k}]", f"its time {pairs[k][0]:g} s is not after the one before "
+                   f"({pairs[k - 1][0]:g} s): a table's times must increase")
+            return None
+    return pairs
+
+
+def _check_nozzle(v, e: Emitter, path: str, lo, hi, dx: float, walls: list) -> None:
+    row = e.row(dx)
+    if lo and hi and not ((row >= np.asarray(lo)).all() and (row <= np.asarray(hi)).all()):
+        v.fail(path, f"its nozzle's row ({len(row)} particle(s) about {list(e.at)}) reaches "
+               "outside the domain: its particles would be removed as they appear")
+    a, b = row[0], row[-1]
+    if len(row) == 1:  # a single particle: its own spacing across
+        across = np.array([-e.unit()[1], e.unit()[0]]) * 0.5 * dx
+        a, b = row[0] - across, row[0] + across
+    for k, (p, q) in enumerate(walls):
+        if _segments_cross(a, b, np.asarray(p), np.asarray(q)):
+            v.fail(path, f"a wall (segment {k}) crosses its nozzle: move it clear of the walls")
+            return
+
+
+def _segments_cross(a, b, c, d) -> bool:
+    def orient(p, q, r):
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+    d1, d2 = orient(c, d, a), orient(c, d, b)
+    d3, d4 = orient(a, b, c), orient(a, b, d)
+    return d1 * d2 <= 0 and d3 * d4 <= 0 and not (d1 == d2 == 0)
+
+
+def check_sinks(v, sinks: list, lo, hi, initial: np.ndarray | None) -> None:
+    """Sinks that meet the domain and hold none of the initial fluid (it would
+    vanish in the first step)."""
+    for i, s in enumerate(sinks):
+        path = f"sinks[{i}]"
+        (x0, y0), (x1, y1) = s.bounds()
+        if lo and hi and (x1 < lo[0] or y1 < lo[1] or x0 > hi[0] or y0 > hi[1]):
+            v.fail(path, f"lies outside the domain (min {list(lo)}, max {list(hi)}): it "
+                   "removes nothing")
+            continue
+        if initial is not None and len(initial):
+            held = int(s.contains(initial[:, 0], initial[:, 1], 0.0).sum())
+            if held:
+                v.fail(path, f"holds {held} particle(s) of the initial fluid, which would "
+                       "vanish in the first step: keep sinks clear of fluid_regions")

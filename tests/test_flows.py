@@ -1,0 +1,207 @@
+"""Emitters and sinks (the scene's "emitters" and "sinks"; sphfluid/flows.py,
+cpp/boundary/flows.hpp): the jet's lattice and rate, the sinks' counts, the
+particle balance, threads, checkpoints, the scene format and its errors."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import sphfluid
+from sphfluid.flows import Emitter
+
+DX = 0.02
+
+
+def scene(method="wcsph", **extra) -> dict:
+    """An empty box without gravity or walls; wcsph at a fixed step."""
+    d = {
+        "format": "sphfluid-scene/1",
+        "gravity": [0.0, 0.0],
+        "domain": {"min": [0.0, 0.0], "max": [2.0, 1.0]},
+        "fluid": {"rest_density": 1000.0, "gas_constant": 20.0},
+        "resolution": {"spacing": DX},
+        "fluid_regions": [],
+        "solver": {"method": method, "time_step": 1e-4},
+    }
+    if method == "wcsph":
+        d["fluid"]["speed_of_sound"] = 20.0
+    d.update(extra)
+    return d
+
+
+def jet(**kw) -> dict:
+    e = {"at": [0.1, 0.5], "direction": [1.0, 0.0], "width": 5 * DX, "speed": 1.0}
+    e.update(kw)
+    return e
+
+
+def balanced(sim) -> bool:
+    b = sim.balance
+    return b["placed"] + b["in"] - b["out"] - b["sunk"] - b["lost"] == b["now"] == sim.n_particles
+
+
+@pytest.mark.parametrize("method", ["seed", "wcsph"])
+def test_an_emitter_lays_rows_on_the_lattice_at_its_rate(method):
+    """Without gravity a jet of 5 across at 1 m/s gives a row every dx / U = 0.02 s,
+    the first at its start: each row appears where it has travelled since it left
+    the nozzle, dx apart across, at U."""
+    sim = sphfluid.Simulation(scene(method, emitters=[jet(start=0.01)]))
+    dt = sim.scene.time_step
+    rows = []
+    for _ in range(1000):  # to t = 0.1 s: rows at t = 0.01, 0.03, ..., 0.09
+        n = sim.n_particles
+        sim.step()
+        if sim.n_particles > n:
+            new = np.argsort(sim.ids)[n:]
+            x, v = sim.positions[new], sim.velocities[new]
+            assert len(new) == 5 and np.ptp(x[:, 0]) == 0.0
+            assert np.sort(x[:, 1]) == pytest.approx(0.5 + (np.arange(5) - 2) * DX, abs=1e-12)
+            assert 0.0 <= x[0, 0] - 0.1 <= 1.0 * dt * (1 + 1e-9)
+            assert v[:, 0] == pytest.approx(1.0, abs=0.01) and np.abs(v[:, 1]).max() < 0.01
+            rows.append(sim.time)
+    assert rows == pytest.approx(0.01 + 0.02 * np.arange(5), abs=1.01 * dt)
+    assert sim.balance["in"] == 5 * 5 == sim.n_particles and balanced(sim)
+    if method == "wcsph":  # the jet keeps its lattice (barely pushed)
+        along = np.unique(np.round(sim.positions[:, 0], 3))
+        assert np.diff(along) == pytest.approx(DX, rel=0.02)
+
+
+def test_a_speed_table_is_integrated():
+    """Speed ramped 0 -> 2 m/s over 0.1 s: the jet has advanced 0.1 m by then, a row
+    each spacing (the first at the start) and none after its stop."""
+    sim = sphfluid.Simulation(scene(emitters=[jet(width=DX, speed=[[0, 0], [0.1, 2.0]],
+                                                  stop=0.1)]))
+    sim.step(1000)
+    assert sim.balance["in"] == math.floor(0.1 / DX + 1e-9) + 1
+    sim.step(500)
+    assert sim.balance["in"] == math.floor(0.1 / DX + 1e-9) + 1  # stopped
+
+
+@pytest.mark.parametrize("method", ["seed", "wcsph"])
+def test_sinks_remove_what_enters_them_and_the_balance_holds(method):
+    """A block moving right at 2 m/s into a sink: every particle that has crossed the
+    sink's edge is gone and counted as sunk, apart from those that left the domain."""
+    d = scene(method, fluid_regions=[{"shape": "rectangle", "min": [0.2, 0.3],
+                                      "max": [0.6, 0.7], "velocity": [2.0, 0.0]}],
+              sinks=[{"shape": "rectangle", "min": [1.0, 0.0], "max": [1.5, 1.0]},
+                     {"shape": "circle", "center": [1.8, 0.5], "radius": 0.1}],
+              emitters=[jet(at=[0.05, 0.15], speed=2.0)])
+    sim = sphfluid.Simulation(d)
+    placed = sim.n_particles
+    for _ in range(6):
+        sim.step(500)
+        assert balanced(sim)
+        x = sim.positions
+        assert not ((x[:, 0] >= 1.0) & (x[:, 0] <= 1.5)).any()
+    b = sim.balance
+    assert b["placed"] == placed and b["sunk"] > 0 and b["in"] > 0
+    assert sim.stats()["particles_sunk"] == b["sunk"]
+    assert sim.stats()["particles_lost"] == sim.removed_particles == b["lost"]
+
+
+def test_one_and_two_threads_identical_with_particles_entering_and_leaving():
+    d = scene("wcsph", gravity=[0.0, -9.81],
+              walls=[[[0.0, 0.0], [2.0, 0.0]]],
+              emitters=[jet(at=[0.3, 0.6], direction=[1, -1], speed=1.5)],
+              sinks=[{"shape": "rectangle", "min": [1.2, 0.0], "max": [2.0, 0.3]}])
+    d["solver"]["time_step"] = "auto"
+    runs = []
+    for threads in (1, 2):
+        sim = sphfluid.Simulation(d, threads=threads)
+        sim.advance_to(0.6)
+        runs.append((sim.ids.copy(), sim.positions.copy(), sim.balance))
+    assert runs[0][2] == runs[1][2] and runs[0][2]["in"] > 100
+    o0, o1 = np.argsort(runs[0][0]), np.argsort(runs[1][0])
+    assert np.array_equal(runs[0][0][o0], runs[1][0][o1])
+    assert np.array_equal(runs[0][1][o0], runs[1][1][o1])
+
+
+def test_a_checkpoint_mid_emission_continues_bit_for_bit(tmp_path):
+    d = scene("wcsph", emitters=[jet(speed=[[0, 0.5], [0.05, 1.5]])],
+              sinks=[{"shape": "circle", "center": [0.2, 0.5], "radius": 0.05}])
+    a = sphfluid.Simulation(d)
+    a.step(333)  # between two rows
+    a.save_state(tmp_path / "c.npz")
+    a.step(700)
+    b = sphfluid.Simulation.from_checkpoint(tmp_path / "c.npz")
+    b.step(700)
+    assert a.balance == b.balance and a.balance["sunk"] > 0
+    assert np.array_equal(a.ids, b.ids) and np.array_equal(a.positions, b.positions)
+
+
+def test_the_scene_round_trips_with_its_emitters_and_sinks():
+    d = scene(emitters=[jet(name="tap", speed=[[0, 1], [1, 2]], start=0.5, stop=2.0),
+                        {"at": [1.0, 0.9]}],
+              sinks=[{"shape": "polygon", "points": [[1.5, 0.1], [1.9, 0.1], [1.7, 0.4]]}])
+    s = sphfluid.load_scene(d)
+    assert sphfluid.load_scene(json.loads(json.dumps(s.to_dict()))) == s
+    assert s.emitters[1].direction == (0.0, -1.0) and s.emitters[1].width is None
+    assert s.emitters[0].table() == ([0.0, 1.0], [1.0, 2.0])
+
+
+def test_an_emitter_counts_in_the_expected_speed():
+    """wcsph's default speed of sound is 10 x the fastest the fluid is expected to
+    move: a jet's speed and its fall to the floor count."""
+    d = scene(gravity=[0.0, -9.81], emitters=[jet(at=[1.0, 0.8], speed=3.0)])
+    del d["fluid"]["speed_of_sound"]
+    expected = math.sqrt(3.0**2 + 2 * 9.81 * 0.8)
+    assert sphfluid.simulation.expected_top_speed(sphfluid.load_scene(d)) == \
+        pytest.approx(expected)
+
+
+@pytest.mark.parametrize("change, where, words", [
+    (lambda d: d["emitters"][0].update(speed=[[0, 1], [0, 2]]), "emitters[0].speed[1]",
+     "must increase"),
+    (lambda d: d["emitters"][0].update(speed=[[1, 1], [0.5, 2]]), "emitters[0].speed[1]",
+     "must increase"),
+    (lambda d: d["emitters"][0].update(speed=-1), "emitters[0].speed", ">= 0"),
+    (lambda d: d["emitters"][0].update(start=1.0, stop=0.5), "emitters[0].stop",
+     "after start"),
+    (lambda d: d["emitters"][0].update(direction=[0, 0]), "emitters[0].direction",
+     "not be [0, 0]"),
+    (lambda d: d["emitters"][0].update(at=[1.0, 0.99]), "emitters[0]", "outside the domain"),
+    (lambda d: d["emitters"][0].update(at=[2.5, 0.5]), "emitters[0]", "outside the domain"),
+    (lambda d: d.update(walls=[[[0.0, 0.45], [0.3, 0.55]]]), "emitters[0]", "crosses its nozzle"),
+    (lambda d: d["emitters"][0].update(width=0), "emitters[0].width", ""),
+    (lambda d: d["emitters"][0].update(rate=3), "emitters[0].rate", "unknown key"),
+    (lambda d: d.update(sinks=[{"shape": "rectangle", "min": [3, 0], "max": [4, 1]}]),
+     "sinks[0]", "outside the domain"),
+    (lambda d: d.update(sinks=[{"shape": "circle", "center": [1, 0.5], "radius": 0.2}],
+                        fluid_regions=[{"shape": "rectangle", "min": [0.9, 0.4],
+                                        "max": [1.3, 0.6]}]),
+     "sinks[0]", "initial fluid"),
+    (lambda d: d.update(sinks=[{"shape": "circle", "center": [1, 0.5]}]), "sinks[0].radius",
+     "missing"),
+])
+def test_bad_emitters_and_sinks_are_refused_by_json_path(change, where, words):
+    d = scene(emitters=[jet()])
+    change(d)
+    with pytest.raises(sphfluid.SceneError) as e:
+        sphfluid.load_scene(d)
+    lines = [line for line in str(e.value).splitlines() if line.strip().startswith(where + ":")]
+    assert lines and words in lines[0], str(e.value)
+
+
+def test_adding_an_emitter_to_a_run_checks_it_and_keeps_the_run():
+    sim = sphfluid.Simulation(scene(emitters=[jet()]))
+    sim.step(100)
+    n = sim.n_particles
+    with pytest.raises(sphfluid.SceneError, match="outside the domain"):
+        sim.add_emitter(Emitter(at=(5.0, 0.5)))
+    assert len(sim.scene.emitters) == 1 and sim.n_particles == n
+    sim.add_emitter(Emitter(at=(1.0, 0.9), start=sim.time))
+    sim.step(400)
+    assert len(sim.scene.emitters) == 2 and (sim.positions[:, 1] < 0.9).any()
+    assert balanced(sim)
+
+
+def test_placing_particles_through_the_api_keeps_the_balance():
+    sim = sphfluid.Simulation(scene(emitters=[jet()]))
+    sim.step(300)
+    sim.add_particles([[1.0, 0.5], [3.0, 0.5]])  # the second is outside: lost at once
+    assert balanced(sim) and sim.balance["lost"] == 1
+    sim.set_state(sim.positions[:4].copy(), sim.velocities[:4].copy())
+    assert balanced(sim) and sim.n_particles == 4
