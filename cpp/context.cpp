@@ -40,7 +40,8 @@ Real Context::choose_dt(Real dt_cap) {
   const SimParams& P = params_;
   const Real inf = std::numeric_limits<Real>::infinity();
   const Real l = step_length;
-  Real dt = P.cfl * l / (sound_speed + std::sqrt(v2));
+  // (a moving wall's speed counts: it may not move more than the flow a step)
+  Real dt = P.cfl * l / (sound_speed + std::sqrt(v2) + walls.max_speed());
   TimeStepLimit limit = TimeStepLimit::kCfl;
   auto consider = [&](Real candidate, TimeStepLimit why) {
     if (candidate < dt) {

@@ -105,10 +105,14 @@ class Context {
   // is known, into a fresh buffer: a non-finite result keeps the half-step
   // velocities (InstabilityError).
   void add_gravity_and_kick(Real half, const Vec2* extra);
-  // After the drift: particles that left the domain are removed (and
-  // counted), unless the integration saw every particle inside; then the
-  // sinks and emitters act (exchange).
+  // After the drift: moving walls move to the step's end; particles that
+  // left the domain are removed (and counted), unless the integration saw
+  // every particle inside; then the sinks and emitters act (exchange).
   void leave_domain() {
+    if (walls.moves()) {  // the walls where the step ends, for its evaluation
+      walls.move_to(time_ + last_dt_);
+      ghosts.stale();
+    }
     if (!all_inside_) remove_outside_domain();
     if (flows.any()) exchange();
   }

@@ -40,6 +40,8 @@ SPHFLUID_INLINE simd::Mask8 may_meet_wall(const WallSet& walls, simd::Mask8 ok, 
 template <bool Walls, bool Periodic>
 void Context::integrate(Real dt, Real kick, const Vec2* shift) {
   const Index n = size();
+  if constexpr (Walls)
+    if (walls.moves()) walls.aim(time_ + dt);  // where the moving walls end the step
   Vec2* x_new = ps.x.begin_write(n);
   Vec2* v_new = ps.v.begin_write(n);
   Integration r;
@@ -134,7 +136,8 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
   const Real rho_max = lim.rho_max, v2_max = lim.v2_max;
   // The clearances found by this step's ghost search, for the positions x;
   // they serve this integration only.
-  [[maybe_unused]] const bool clear_known = ghosts.fresh_for(n);
+  // (not past moving walls: one may come closer than a clearance in a step)
+  [[maybe_unused]] const bool clear_known = ghosts.fresh_for(n) && !walls.moves();
   [[maybe_unused]] const float* clear2_of = ghosts.clearances();
   ghosts.stale();
   // Ahead of the next sort (CellGrid::set_ahead): the new positions'

@@ -85,6 +85,15 @@ void Solver::set_wall_velocities(const std::vector<Vec2>& velocities) {
   compute_energy_budget();
 }
 
+void Solver::set_wall_motions(std::vector<WallMotion> motions,
+                              const std::vector<Index>& motion_of) {
+  ctx_.ghosts.stale();
+  ctx_.walls.set_motions(std::move(motions), motion_of, ctx_.time());
+  select_step();
+  compute_forces();
+  compute_energy_budget();
+}
+
 void Solver::set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing) {
   ctx_.flows.set(std::move(emitters), std::move(sinks), spacing);
 }
@@ -205,6 +214,8 @@ void Solver::restore(const Snapshot& s) {
   for (FieldBase* f : fields) f->assign(find(f)->bytes.data(), n);
   ctx_.restore_clock(s.time, s.step_count, s.last_dt, s.last_limit, s.removed,
                      s.wall_crossings);
+  ctx_.walls.move_to(s.time);
+  ctx_.ghosts.stale();
   ctx_.energy_budget = s.energy_budget;
   ctx_.energy_removed = s.energy_removed;
   ctx_.balance = s.balance;
@@ -246,8 +257,9 @@ void Solver::compute_energy_budget() {
   surface = std::max(surface, method_->surface_energy());
   const Real c = ctx_.sound_speed;
   const Real floor = 0.5 * n * m * (0.01 * c) * (0.01 * c);
-  // A wall whose surface slides drags the fluid at most to its own speed.
-  Real drag = 0;
+  // A wall whose surface slides, or that moves, drags the fluid at most to
+  // its own speed.
+  Real drag = 0.5 * n * m * ctx_.walls.top_speed() * ctx_.walls.top_speed();
   for (const Segment& w : ctx_.walls.segments())
     drag = std::max(drag, 0.5 * n * m * w.velocity.squaredNorm());
   ctx_.energy_budget = kinetic + release + elastic + surface + floor + drag;

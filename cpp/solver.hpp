@@ -72,6 +72,9 @@ class Solver {
   void set_walls(std::vector<Segment> walls);
   // The walls' surface velocities, one per segment (their tangential parts).
   void set_wall_velocities(const std::vector<Vec2>& velocities);
+  // Moving walls (WallSet::set_motions): motion_of[k] is segment k's motion
+  // or -1; the walls as they are now are their drawn positions.
+  void set_wall_motions(std::vector<WallMotion> motions, const std::vector<Index>& motion_of);
   // Replace the emitters and sinks (boundary/flows.hpp); they act from the
   // next step, the emitters' rows on the lattice of this spacing (m). Throws
   // std::invalid_argument for one that cannot work.

@@ -57,6 +57,25 @@ Sink to_sink(const py::dict& d) {
   return s;
 }
 
+TimeTable to_table(const py::handle& pairs) {
+  TimeTable tab;
+  for (const py::handle& p : pairs.cast<py::list>()) {
+    const auto tv = p.cast<std::array<Real, 2>>();
+    tab.t.push_back(tv[0]);
+    tab.value.push_back(tv[1]);
+  }
+  return tab;
+}
+
+WallMotion to_motion(const py::dict& d) {
+  WallMotion m;
+  m.x = to_table(d["x"]);
+  m.y = to_table(d["y"]);
+  m.angle = to_table(d["angle"]);
+  m.about = to_point(d["about"]);
+  return m;
+}
+
 // Making a solver.
 void def_construction(SolverClass& c) {
   c.def(py::init([](const SimParams& p, const InArray& x, const InArray& v, const InArray& walls,
@@ -136,6 +155,18 @@ void def_editing(SolverClass& c) {
           py::arg("velocities"),
           "The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by "
           "default and after set_walls.")
+      .def(
+          "set_wall_motions",
+          [](Solver& s, const py::list& motions, const std::vector<Index>& motion_of) {
+            std::vector<WallMotion> ms;
+            for (const py::handle& item : motions) ms.push_back(to_motion(item.cast<py::dict>()));
+            s.set_wall_motions(std::move(ms), motion_of);
+          },
+          py::arg("motions"), py::arg("motion_of"),
+          "Moving walls: each motion a dict of tables 'x', 'y' (the drawn position's "
+          "translation, m) and 'angle' (radians, counterclockwise about 'about' [x, y], "
+          "which moves with it), each [[t, value], ...]; motion_of[k] is segment k's "
+          "motion or -1. The walls as they are now are the drawn ones.")
       .def(
           "set_flows",
           [](Solver& s, const py::list& emitters, const py::list& sinks, Real spacing) {

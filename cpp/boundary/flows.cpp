@@ -16,28 +16,6 @@ void check(bool ok, const std::string& what) {
 
 }  // namespace
 
-Real TimeTable::at(Real time) const {
-  if (t.size() == 1 || time <= t.front()) return value.front();
-  if (time >= t.back()) return value.back();
-  const auto k = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin());
-  const Real s = (time - t[k - 1]) / (t[k] - t[k - 1]);
-  return value[k - 1] + s * (value[k] - value[k - 1]);
-}
-
-Real TimeTable::integral(Real a, Real b) const {
-  if (!(b > a)) return 0;
-  // The value is linear between consecutive breaks among a, b and the table's times.
-  Real sum = 0, from = a;
-  auto piece = [&](Real to) {
-    sum += Real(0.5) * (at(from) + at(to)) * (to - from);
-    from = to;
-  };
-  for (Real tk : t)
-    if (tk > a && tk < b) piece(tk);
-  piece(b);
-  return sum;
-}
-
 bool Sink::contains(const Vec2& p) const {
   if (!(p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y())) return false;
   if (radius > 0) return (p - centre).squaredNorm() <= radius * radius;

@@ -9,19 +9,10 @@
 #include <limits>
 #include <vector>
 
+#include "core/time_table.hpp"
 #include "core/types.hpp"
 
 namespace sphfluid {
-
-// A value that changes in time: (time, value) pairs in increasing time,
-// linear between them, their end values beyond them (one pair: a constant).
-struct TimeTable {
-  std::vector<Real> t, value;
-  Real at(Real time) const;
-  // The integral of the value over [a, b] (the trapezoid of each piece: exact
-  // for the piecewise-linear value).
-  Real integral(Real a, Real b) const;
-};
 
 // A nozzle centred at `at`, `width` across, emitting along `direction` (a
 // unit vector) from `start` to `stop` at `speed`: rows of round(width / dx)

@@ -50,9 +50,20 @@ Real path_hit(const Segment& s, const Vec2& p0, const Vec2& p1) {
 }
 
 WallSet::WallSet(std::vector<Segment> segments, Real h) : segments_(std::move(segments)) {
+  h_ = h;
   h2_ = h * h;
   eps_ = 1e-6 * h;
+  build();
+}
+
+void WallSet::build() {
+  const Real h = h_;
   const Index ns = static_cast<Index>(segments_.size());
+  cell_start_.clear();
+  cell_items_.clear();
+  cell_count_.clear();
+  nx_ = ny_ = 0;
+  for (Segment& s : segments_) s.shared_a = s.shared_b = -1;
   if (ns == 0) return;
 
   // Shared end points: each end's partner is the lowest-numbered other segment
@@ -188,6 +199,30 @@ Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const {
 }
 
 int WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const {
+  if (motions_.empty()) return collide_fixed(x_old, x_new, v, restitution);
+  int hits = parts_[0].collide_fixed(x_old, x_new, v, restitution);
+  bool pushed = false;
+  for (std::size_t k = 0; k < motions_.size(); ++k) {
+    const WallSet& part = parts_[k + 1];
+    const WallPose &now = pose_[k], &next = next_[k];
+    // The end relative to the group: where it would be with the group back at
+    // its pose now; the velocity relative to the wall's, in the same frame.
+    Vec2 q1 = now.place(next.drawn(x_new));
+    if (!part.may_hit(x_old, q1)) continue;
+    Vec2 vr = now.rotate(next.unrotate(v - next.velocity_at(x_new)));
+    const int k_hits = part.collide_fixed(x_old, q1, vr, restitution);
+    if (k_hits == 0) continue;
+    x_new = next.place(now.drawn(q1));
+    v = next.rotate(now.unrotate(vr)) + next.velocity_at(x_new);
+    hits += k_hits;
+    pushed = true;
+  }
+  // A moving wall's push may lead across a fixed wall: met again from x_old.
+  if (pushed) hits += parts_[0].collide_fixed(x_old, x_new, v, restitution);
+  return hits;
+}
+
+int WallSet::collide_fixed(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const {
   Vec2 p0 = x_old, p1 = x_new;
   Index bounced[kMaxBounces];
   int n_bounced = 0;
@@ -231,7 +266,7 @@ int WallSet::collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) 
 void WallSet::set_velocities(const std::vector<Vec2>& velocities) {
   if (velocities.size() != segments_.size())
     throw std::invalid_argument("one wall velocity per segment");
-  moving_ = false;
+  moving_ = !motions_.empty();
   for (std::size_t k = 0; k < segments_.size(); ++k) {
     if (!velocities[k].allFinite()) throw std::invalid_argument("wall velocity is not finite");
     Segment& s = segments_[k];
@@ -240,21 +275,169 @@ void WallSet::set_velocities(const std::vector<Vec2>& velocities) {
   }
 }
 
+namespace {
+
+// The segment of the lookup cell's list [first, last) nearest to p, or -1.
+template <class Items>
+Index nearest_of(const std::vector<Segment>& segments, const Items& items, Index first,
+                 Index last, const Vec2& p) {
+  Real best = std::numeric_limits<Real>::infinity();
+  Index nearest = -1;
+  for (Index q = first; q < last; ++q) {
+    Real t;
+    const Segment& s = segments[items[q]];
+    const Real d2 = (closest_point(s, p, t) - p).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      nearest = items[q];
+    }
+  }
+  return nearest;
+}
+
+}  // namespace
+
 Vec2 WallSet::velocity_at(const Vec2& foot) const {
   const Index c = cell_of(foot);
   if (c < 0) return Vec2::Zero();
-  Real best = std::numeric_limits<Real>::infinity();
-  Vec2 v = Vec2::Zero();
-  for (Index q = cell_start_[c]; q < cell_start_[c + 1]; ++q) {
-    const Segment& s = segments_[cell_items_[q]];
-    Real t;
-    const Real d2 = (closest_point(s, foot, t) - foot).squaredNorm();
-    if (d2 < best) {
-      best = d2;
-      v = s.velocity;
+  const Index si = nearest_of(segments_, cell_items_, cell_start_[c], cell_start_[c + 1], foot);
+  if (si < 0) return Vec2::Zero();
+  if (!motion_of_.empty() && motion_of_[si] >= 0) return pose_[motion_of_[si]].velocity_at(foot);
+  return segments_[si].velocity;
+}
+
+Vec2 WallSet::motion_velocity_at(const Vec2& foot) const {
+  if (motions_.empty()) return Vec2::Zero();
+  const Index c = cell_of(foot);
+  if (c < 0) return Vec2::Zero();
+  const Index si = nearest_of(segments_, cell_items_, cell_start_[c], cell_start_[c + 1], foot);
+  if (si < 0 || motion_of_[si] < 0) return Vec2::Zero();
+  return pose_[motion_of_[si]].velocity_at(foot);
+}
+
+WallPose WallPose::of(const WallMotion& m, Real time) {
+  WallPose p;
+  p.about = m.about;
+  const Vec2 shift(m.x.at(time), m.y.at(time));
+  p.centre = m.about + shift;
+  const Real angle = m.angle.at(time);
+  p.cos = std::cos(angle);
+  p.sin = std::sin(angle);
+  p.velocity = Vec2(m.x.slope(time), m.y.slope(time));
+  p.omega = m.angle.slope(time);
+  return p;
+}
+
+namespace {
+
+// Throws std::invalid_argument for a motion that cannot be followed.
+void check_motions(const std::vector<WallMotion>& motions, const std::vector<Index>& motion_of,
+                   std::size_t segments) {
+  if (motion_of.size() != segments) throw std::invalid_argument("one motion index per wall segment");
+  for (Index k : motion_of)
+    if (k < -1 || k >= static_cast<Index>(motions.size()))
+      throw std::invalid_argument("a wall's motion index is out of range");
+  for (const WallMotion& m : motions) {
+    if (!m.about.allFinite()) throw std::invalid_argument("a wall motion's centre is not finite");
+    for (const TimeTable* tab : {&m.x, &m.y, &m.angle}) {
+      if (tab->t.empty() || tab->t.size() != tab->value.size())
+        throw std::invalid_argument("a wall motion's table needs one value per time");
+      for (std::size_t i = 0; i < tab->t.size(); ++i)
+        if (!std::isfinite(tab->t[i]) || !std::isfinite(tab->value[i]) ||
+            (i > 0 && !(tab->t[i] > tab->t[i - 1])))
+          throw std::invalid_argument("a wall motion's table: finite values, times increasing");
     }
   }
-  return v;
+}
+
+}  // namespace
+
+void WallSet::set_motions(std::vector<WallMotion> motions, const std::vector<Index>& motion_of,
+                          Real time) {
+  check_motions(motions, motion_of, drawn_.empty() ? segments_.size() : drawn_.size());
+  if (!drawn_.empty()) segments_ = drawn_;  // (motions set before: back to the drawing)
+  drawn_.clear();
+  motion_of_.clear();
+  motions_.clear();
+  parts_.clear();
+  pose_.clear();
+  next_.clear();
+  bool any = false;
+  for (Index k : motion_of) any = any || k >= 0;
+  moving_ = false;
+  for (const Segment& s : segments_) moving_ = moving_ || s.velocity.squaredNorm() > 0;
+  if (!any) {
+    build();
+    return;
+  }
+  drawn_ = segments_;
+  motion_of_ = motion_of;
+  motions_ = std::move(motions);
+  pose_.resize(motions_.size());
+  next_.resize(motions_.size());
+  std::vector<Segment> fixed;
+  for (std::size_t i = 0; i < drawn_.size(); ++i)
+    if (motion_of_[i] < 0) fixed.push_back(drawn_[i]);
+  parts_.assign(motions_.size() + 1, WallSet());
+  parts_[0] = WallSet(std::move(fixed), h_);
+  move_to(time);
+  aim(time);
+}
+
+void WallSet::move_to(Real time) {
+  if (motions_.empty()) return;
+  for (std::size_t k = 0; k < motions_.size(); ++k) pose_[k] = WallPose::of(motions_[k], time);
+  std::vector<std::vector<Segment>> groups(motions_.size());
+  for (std::size_t i = 0; i < drawn_.size(); ++i) {
+    const Index k = motion_of_[i];
+    if (k < 0) {
+      segments_[i] = drawn_[i];
+      continue;
+    }
+    Segment s = make_segment(pose_[k].place(drawn_[i].a), pose_[k].place(drawn_[i].b));
+    segments_[i] = s;
+    groups[k].push_back(s);
+  }
+  build();
+  for (std::size_t k = 0; k < groups.size(); ++k) parts_[k + 1] = WallSet(groups[k], h_);
+  moving_ = true;
+}
+
+void WallSet::aim(Real time_next) {
+  for (std::size_t k = 0; k < motions_.size(); ++k) next_[k] = WallPose::of(motions_[k], time_next);
+}
+
+Real WallSet::max_speed() const {
+  Real fastest = 0;
+  for (std::size_t i = 0; i < segments_.size() && !motion_of_.empty(); ++i) {
+    const Index k = motion_of_[i];
+    if (k < 0) continue;
+    for (const Vec2& p : {segments_[i].a, segments_[i].b})
+      fastest = std::max({fastest, pose_[k].velocity_at(p).norm(), next_[k].velocity_at(p).norm()});
+  }
+  return fastest;
+}
+
+}  // namespace sphfluid
+
+namespace sphfluid {
+
+Real WallSet::top_speed() const {
+  Real fastest = 0;
+  for (std::size_t i = 0; i < drawn_.size(); ++i) {
+    const Index k = motion_of_[i];
+    if (k < 0) continue;
+    const WallMotion& m = motions_[k];
+    const Real reach = std::max((drawn_[i].a - m.about).norm(), (drawn_[i].b - m.about).norm());
+    auto steepest = [](const TimeTable& tab) {
+      Real most = 0;
+      for (std::size_t j = 1; j < tab.t.size(); ++j)
+        most = std::max(most, std::abs(tab.value[j] - tab.value[j - 1]) / (tab.t[j] - tab.t[j - 1]));
+      return most;
+    };
+    fastest = std::max(fastest, std::hypot(steepest(m.x), steepest(m.y)) + steepest(m.angle) * reach);
+  }
+  return fastest;
 }
 
 }  // namespace sphfluid

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/time_table.hpp"
 #include "core/types.hpp"
 #include "simd/ints.hpp"
 
@@ -25,6 +26,35 @@ struct Segment {
   Vec2 velocity = Vec2::Zero();
 };
 
+// A rigid motion of a group of walls: a translation (x(t), y(t)) of their
+// drawn position and a rotation by angle(t) (radians, counterclockwise)
+// about the point `about`, which moves with the translation: a drawn point
+// p is at about + (x, y) + R(angle) (p - about).
+struct WallMotion {
+  TimeTable x, y, angle;
+  Vec2 about = Vec2::Zero();
+};
+
+// A WallMotion at one time: where drawn points are and how fast they move.
+struct WallPose {
+  Vec2 centre = Vec2::Zero();  // where `about` is, m
+  Vec2 about = Vec2::Zero();
+  Real cos = 1, sin = 0;
+  Vec2 velocity = Vec2::Zero();  // of the centre, m/s
+  Real omega = 0;                // rad/s
+  static WallPose of(const WallMotion& m, Real time);
+  Vec2 rotate(const Vec2& u) const { return Vec2(cos * u.x() - sin * u.y(), sin * u.x() + cos * u.y()); }
+  Vec2 unrotate(const Vec2& u) const { return Vec2(cos * u.x() + sin * u.y(), -sin * u.x() + cos * u.y()); }
+  // A drawn point's place, and back.
+  Vec2 place(const Vec2& drawn) const { return centre + rotate(drawn - about); }
+  Vec2 drawn(const Vec2& placed) const { return about + unrotate(placed - centre); }
+  // The velocity of the wall's material at a placed point.
+  Vec2 velocity_at(const Vec2& p) const {
+    const Vec2 r = p - centre;
+    return velocity + omega * Vec2(-r.y(), r.x());
+  }
+};
+
 // Throws std::invalid_argument for a zero-length or non-finite segment.
 Segment make_segment(const Vec2& a, const Vec2& b);
 
@@ -36,6 +66,17 @@ Vec2 closest_point(const Segment& s, const Vec2& p, Real& t);
 // or a negative value if it does not (parallel paths never meet).
 Real path_hit(const Segment& s, const Vec2& p0, const Vec2& p1);
 
+class WallSet;
+
+// A particle's velocity relative to a moving wall's material at the ghost
+// at r (from the ghost to the particle): what the wall terms take beside
+// moving walls (the rows and ghosts move with their wall).
+struct VelocityToWall {
+  const WallSet& walls;
+  Vec2 x, v;
+  Vec2 operator()(const Vec2& r) const;
+};
+
 class WallSet {
  public:
   WallSet() = default;
@@ -46,11 +87,33 @@ class WallSet {
   const std::vector<Segment>& segments() const { return segments_; }
   // The walls' surface velocities (one per segment; their tangential parts).
   void set_velocities(const std::vector<Vec2>& velocities);
-  // Whether any wall's surface moves.
+  // Whether any wall's surface moves (slides, or the wall itself moves).
   bool moving() const { return moving_; }
   // The surface velocity of the wall through `foot` (a ghost's foot of the
-  // perpendicular; the nearest segment of its lookup cell), zero off the grid.
+  // perpendicular; the nearest segment of its lookup cell), zero off the grid:
+  // a sliding surface's, or a moving wall's material velocity there.
   Vec2 velocity_at(const Vec2& foot) const;
+  // A moving wall's material velocity at `foot` (zero for a fixed or a
+  // sliding one): what the boundary terms take relative velocities to.
+  Vec2 motion_velocity_at(const Vec2& foot) const;
+
+  // Moving walls: motion_of[k] is segment k's motion (an index into motions)
+  // or -1 for a fixed wall; the segments as given are the drawn positions.
+  // Places the walls at `time`. Throws std::invalid_argument for a table out of
+  // order or a motion index out of range.
+  void set_motions(std::vector<WallMotion> motions, const std::vector<Index>& motion_of,
+                   Real time);
+  // Whether any wall moves (its geometry, not only its surface).
+  bool moves() const { return !motions_.empty(); }
+  // The walls at `time` (their segments and lookup grid); nothing without motion.
+  void move_to(Real time);
+  // The poses at the end of the coming step, for collide().
+  void aim(Real time_next);
+  // The largest speed of a moving wall's material, now or at the end of the
+  // coming step (at its segments' ends), m/s; 0 without motion.
+  Real max_speed() const;
+  // The largest it can be over the whole motion (from the tables), m/s.
+  Real top_speed() const;
 
   // Calls f(r_ig, interior) for every ghost of a fluid particle at p, where
   // r_ig = p - ghost, |r_ig| < h, and interior is false for a ghost clamped to an
@@ -94,6 +157,9 @@ class WallSet {
   // If the path meets a wall a second time, the particle stops just in front
   // of it instead, so no path ever crosses a wall. Returns the crossings it
   // stopped: the bounces, and the stop if there was one.
+  // With moving walls, each moving group is met in its own frame: the path's
+  // end mapped to where it is relative to the group at the step's start (the
+  // poses of aim()), the velocity taken relative to the wall's.
   int collide(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
 
   // False when the path p0 -> p1 cannot meet a wall: it lies in one lookup
@@ -145,12 +211,25 @@ class WallSet {
     return static_cast<Index>(fy) * nx_ + static_cast<Index>(fx);
   }
   bool owns_end_point(Index si, Index other, const Vec2& p) const;
+  // The shared end points and the lookup grid of segments_.
+  void build();
+  // collide() among these segments as they stand.
+  int collide_fixed(const Vec2& x_old, Vec2& x_new, Vec2& v, Real restitution) const;
   // The wall that the path p0 -> p1 meets first (and where, in s_hit); -1 if none.
   Index first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const;
 
   std::vector<Segment> segments_;
   bool moving_ = false;
+  Real h_ = 0;
   Real h2_ = 0;
+  // Moving walls: the drawn segments, each one's motion (-1: fixed), the
+  // motions, their poses now and at the end of the coming step, and the
+  // segments split into the fixed ones (parts_[0]) and one set per motion.
+  std::vector<Segment> drawn_;
+  std::vector<Index> motion_of_;
+  std::vector<WallMotion> motions_;
+  std::vector<WallPose> pose_, next_;
+  std::vector<WallSet> parts_;
   Real eps_ = 0;  // stand-off from a wall after a bounce, m
   // Lookup grid: each cell lists the segments that come within h of it.
   Vec2 origin_{0, 0};
@@ -160,5 +239,9 @@ class WallSet {
   std::vector<Index> cell_items_;
   std::vector<Index> cell_count_;  // segments in each cell: one gather for the 8-lane tests
 };
+
+inline Vec2 VelocityToWall::operator()(const Vec2& r) const {
+  return v - walls.motion_velocity_at(x - r);
+}
 
 }  // namespace sphfluid

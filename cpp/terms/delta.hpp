@@ -211,6 +211,16 @@ inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, con
     d += rho_i * (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
   });
 }
+// The same beside moving walls: the rows move with their wall, v_i taken
+// relative to the wall's material at each ghost (VelocityToWall).
+inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i,
+                          const VelocityToWall& vi_of, Real& d) {
+  for (const Vec2& r : ghosts) add_wall_rate(t, Row<Vec2>{&r, &r + 1}, rho_i, vi_of(r), d);
+  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    d += rho_i * (t.corner_line(d1, d2) * vi_of(r1).dot(r1) / d1 +
+                  t.corner_line(d2, d1) * vi_of(r2).dot(r2) / d2);
+  });
+}
 inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Vec2& g, Vec2& f) {
   for (const Vec2& r : ghosts) {
     const Real rl = r.norm();

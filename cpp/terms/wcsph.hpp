@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "boundary/walls.hpp"
 #include "terms/wall_tables.hpp"
 #include "core/csr.hpp"
 #include "core/params.hpp"
@@ -142,6 +143,20 @@ void add_wall_force(const WallTables& t, const Wendland& W, const PairConstants<
   }
   for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     f -= (2 * pw2 * rho_w) * (t.corner_line(d1, d2) / d1 * r1 + t.corner_line(d2, d1) / d2 * r2);
+  });
+}
+
+// The same beside moving walls: the ghosts move with their wall, and the
+// viscosities act on v_i relative to the wall's material at each ghost.
+template <bool Viscosity>
+void add_wall_force(const WallTables& t, const Wendland& W, const PairConstants<Real>& c,
+                    Real rho_w, Row<Vec2> ghosts, Real pi2, Real inv_i,
+                    const VelocityToWall& vi_of, Vec2& f) {
+  for (const Vec2& r : ghosts)
+    add_wall_force<Viscosity>(t, W, c, rho_w, Row<Vec2>{&r, &r + 1}, pi2, inv_i, vi_of(r), f);
+  const Real push = 2 * std::max(pi2, Real(0)) * rho_w;  // (the corners: once)
+  for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
+    f -= push * (t.corner_line(d1, d2) / d1 * r1 + t.corner_line(d2, d1) / d2 * r2);
   });
 }
 

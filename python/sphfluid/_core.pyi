@@ -144,6 +144,11 @@ class Solver(metaclass=_Pybind11Type):
     def set_wall_velocities(self, velocities: ArrayLike) -> None:
         """The walls' surface velocities (s, 2), along each wall (a sliding lid); zero by
         default and after set_walls."""
+    def set_wall_motions(self, motions: list[dict[str, Any]], motion_of: Sequence[int]) -> None:
+        """Moving walls: each motion a dict of tables 'x', 'y' (the drawn position's
+        translation, m) and 'angle' (radians, counterclockwise about 'about' [x, y],
+        which moves with it), each [[t, value], ...]; motion_of[k] is segment k's
+        motion or -1. The walls as they are now are the drawn ones."""
     def set_flows(self, emitters: list[dict[str, Any]], sinks: list[dict[str, Any]],
                   spacing: float) -> None:
         """Replace the emitters and sinks; they act from the next step, the emitters'

@@ -1,4 +1,5 @@
-"""Emitters and sinks: the scene's ``"emitters"`` and ``"sinks"`` (extensions).
+"""Emitters, sinks and moving walls: the scene's ``"emitters"``, ``"sinks"`` and
+a polyline's ``"motion"`` (extensions).
 
 An emitter is a nozzle that emits a jet on the lattice of the scene's spacing:
 rows of round(width / spacing) particles across, a new row whenever the last
@@ -7,7 +8,11 @@ has travelled one spacing, at a speed that is a constant or a table of
 is a region (a rectangle, circle or polygon) that removes every particle
 that enters it. The core applies both once a step after the drift, for every
 method (``cpp/boundary/flows.hpp``), and counts what enters and what is sunk
-(``Simulation.balance``). docs/scene-format.md, "Emitters and sinks".
+(``Simulation.balance``). A wall's motion moves it as a rigid body along
+tables of (time, value): its drawn position translated and turned about a
+point; the core meets particles in each moving wall's own frame, so none
+passes through it, and the boundary terms take velocities relative to it.
+docs/scene-format.md, "Emitters and sinks" and "Moving walls".
 """
 from __future__ import annotations
 
@@ -74,6 +79,80 @@ class Emitter:
         if self.stop is not None:
             out["stop"] = self.stop
         return out
+
+
+@dataclass(frozen=True)
+class WallMotion:
+    """A wall's rigid motion: its drawn points p are at about + (x, y)(t) +
+    R(angle(t)) (p - about), each table linear between its times."""
+
+    translation: tuple = ((0.0, 0.0, 0.0),)  # ((t, x, y), ...): s, m, m
+    rotation: tuple = ((0.0, 0.0),)  # ((t, angle), ...): s, radians counterclockwise
+    about: tuple = (0.0, 0.0)  # the centre of the rotation as drawn, m
+
+    def times(self) -> list[float]:
+        return sorted({row[0] for row in self.translation} | {row[0] for row in self.rotation})
+
+    def place(self, points, t: float) -> np.ndarray:
+        """Where drawn points (k, 2) are at time t."""
+        tt = [row[0] for row in self.translation]
+        shift = np.array([np.interp(t, tt, [row[1] for row in self.translation]),
+                          np.interp(t, tt, [row[2] for row in self.translation])])
+        angle = np.interp(t, [row[0] for row in self.rotation], [row[1] for row in self.rotation])
+        c, s = math.cos(angle), math.sin(angle)
+        rel = np.asarray(points, float) - self.about
+        return self.about + shift + rel @ np.array([[c, s], [-s, c]])
+
+    def to_core(self) -> dict:
+        return {"x": [[t, x] for t, x, _ in self.translation],
+                "y": [[t, y] for t, _, y in self.translation],
+                "angle": [list(r) for r in self.rotation], "about": list(self.about)}
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {}
+        if self.translation != WallMotion.translation:
+            out["translation"] = [list(r) for r in self.translation]
+        if self.rotation != WallMotion.rotation:
+            out["rotation"] = [list(r) for r in self.rotation]
+            out["about"] = list(self.about)
+        return out or {"translation": [[0.0, 0.0, 0.0]]}
+
+
+def read_motion(v, item: dict, path: str, first_point) -> WallMotion | None:
+    """A polyline's "motion" (the schema has checked its shape): tables whose
+    times increase, by JSON path; None after a problem."""
+    raw = item["motion"]
+    rows = {}
+    for key, width in (("translation", 3), ("rotation", 2)):
+        table = tuple(tuple(float(x) for x in row) for row in raw.get(key, ()))
+        for k in range(1, len(table)):
+            if not table[k][0] > table[k - 1][0]:
+                v.fail(f"{path}.motion.{key}[{k}]", f"its time {table[k][0]:g} s is not after "
+                       f"the one before ({table[k - 1][0]:g} s): a table's times must increase")
+                return None
+        rows[key] = table or ((0.0,) * width,)
+    about = v.point(raw, "about", f"{path}.motion.", tuple(map(float, first_point)))
+    return WallMotion(rows["translation"], rows["rotation"], about)
+
+
+def check_motions(v, walls: list, motions: list, paths: list, lo, hi) -> None:
+    """Moving walls stay inside the domain: their ends at each table time (and
+    halfway between, for a turn), by the wall's JSON path."""
+    if not (lo and hi):
+        return
+    reported = set()
+    for (a, b), m, path in zip(walls, motions, paths):
+        if m is None or path in reported:
+            continue
+        times = m.times()
+        times += [0.5 * (p + q) for p, q in zip(times, times[1:])]
+        for t in sorted(times):
+            ends = m.place([a, b], t)
+            if not ((ends >= np.asarray(lo)).all() and (ends <= np.asarray(hi)).all()):
+                reported.add(path)
+                v.fail(f"{path}.motion", f"moves the wall outside the domain (min {list(lo)}, "
+                       f"max {list(hi)}) by t = {t:g} s: keep it inside")
+                break
 
 
 def sink_to_core(region) -> dict:

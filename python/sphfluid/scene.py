@@ -165,6 +165,8 @@ class Scene:
     # per segment, the velocity (u, v) of its surface along it (m/s; a sliding
     # lid); () when no wall's surface moves
     wall_velocities: tuple = ()
+    # per segment, its flows.WallMotion or None (a fixed wall); () when none moves
+    wall_motions: tuple = ()
     method: str = "seed"
     duration: float | None = None  # s
     wall_restitution: float = DEFAULT_RESTITUTION
@@ -189,13 +191,19 @@ class Scene:
             object.__setattr__(self, "density", "summation")  # the seed sums (SPEC.md)
 
     def _walls_json(self) -> list:
-        """The walls as the scene format writes them: a moving surface's segment as
-        {"polyline": [a, b], "velocity": [u, v]}."""
+        """The walls as the scene format writes them: a sliding or moving wall's
+        segment as {"polyline": [a, b], "velocity": [u, v]} or {..., "motion": {...}}."""
         out = []
         for k, (a, b) in enumerate(self.walls):
             v = self.wall_velocities[k] if self.wall_velocities else (0.0, 0.0)
-            if any(v):
-                out.append({"polyline": [list(a), list(b)], "velocity": list(v)})
+            m = self.wall_motions[k] if self.wall_motions else None
+            if any(v) or m is not None:
+                d: dict[str, Any] = {"polyline": [list(a), list(b)]}
+                if any(v):
+                    d["velocity"] = list(v)
+                if m is not None:
+                    d["motion"] = m.to_dict()
+                out.append(d)
             else:
                 out.append([list(a), list(b)])
         return out
@@ -426,6 +434,7 @@ class _Validator:
                       surface_tension=fluid.sigma, particle_mass=res.mass,
                       regions=tuple(regions), walls=tuple(walls), method=solver.method,
                       wall_velocities=self.wall_velocities(),
+                      wall_motions=self.wall_motions(domain),
                       duration=duration, wall_restitution=solver.restitution,
                       surface_threshold=solver.threshold, cfl=solver.cfl,
                       on_instability=solver.on_instability, speed_of_sound=fluid.c0,
@@ -555,21 +564,47 @@ class _Validator:
         self._velocities: list[Point] = []  # one per segment
         self._moving_wall = ""  # the path of the first wall whose surface moves
         self._wall_paths: list[str] = []  # one per segment
+        self._motions: list = []  # one per segment: its flows.WallMotion or None
         out: list[tuple[Point, Point]] = []
         for i, item in enumerate(raw):
             path = f"walls[{i}]"
             if not self.ok(path):
                 continue
+            motion = None
             if isinstance(item, dict):
                 segs = self.polyline(item, path)
                 v = self.surface_velocity(item, path, segs)
+                if "motion" in item:
+                    motion = self.wall_motion(item, path, any(v))
             else:
                 segs = self.segment(item, path)
                 v = (0.0, 0.0)
             out += segs
             self._velocities += [v] * len(segs)
             self._wall_paths += [path] * len(segs)
+            self._motions += [motion] * len(segs)
+        self._segments = out
         return out
+
+    def wall_motion(self, item: dict, path: str, sliding: bool):
+        """A polyline's "motion" (flows.read_motion); None after a problem."""
+        from .flows import read_motion
+
+        if sliding:
+            self.fail(f"{path}.motion", 'a wall cannot both slide ("velocity") and move '
+                      '("motion")')
+            return None
+        return read_motion(self, item, path, item["polyline"][0])
+
+    def wall_motions(self, domain: _Domain) -> tuple:
+        """Per segment, its motion; () when none moves. Checks they stay inside."""
+        motions = getattr(self, "_motions", [])
+        if not any(m is not None for m in motions):
+            return ()
+        from .flows import check_motions
+
+        check_motions(self, self._segments, motions, self._wall_paths, domain.lo, domain.hi)
+        return tuple(motions)
 
     def polyline(self, item: dict, path: str) -> list[tuple[Point, Point]]:
         """The segments of {"polyline": [[x, y], ...], "closed": false}."""

@@ -201,8 +201,16 @@ class Simulation:
                                     _wall_array(self.scene))
         if self.scene.wall_velocities:  # sliding surfaces (docs/method-wcsph.md, W25)
             self._solver.set_wall_velocities(np.asarray(self.scene.wall_velocities, float))
+        if self.scene.wall_motions:  # moving walls (flows.WallMotion)
+            self._set_wall_motions()
         if self.scene.emitters or self.scene.sinks:
             self._set_flows()
+
+    def _set_wall_motions(self) -> None:
+        index: dict = {}  # each distinct motion once
+        motion_of = [-1 if m is None else index.setdefault(m, len(index))
+                     for m in self.scene.wall_motions]
+        self._solver.set_wall_motions([m.to_core() for m in index], motion_of)
 
     def _set_flows(self) -> None:
         dx = self.scene.spacing
@@ -402,12 +410,14 @@ class Simulation:
         """Replace the walls: a sequence of segments ((x1, y1), (x2, y2)).
 
         Takes effect at once; the scene (what ``reset`` and saving use) follows.
-        The new walls' surfaces are at rest (a sliding lid's velocity is dropped).
+        The new walls' surfaces are at rest (a sliding lid's velocity is dropped),
+        and they stay where they are (a moving wall's motion is dropped).
         """
         arr = _array(walls, "walls", (-1, 2, 2))
         self._solver.set_walls(arr)  # validates: raises ValueError naming walls[i]
         segs = tuple((tuple(map(float, a)), tuple(map(float, b))) for a, b in arr)
-        self.scene = dataclasses.replace(self.scene, walls=segs, wall_velocities=())
+        self.scene = dataclasses.replace(self.scene, walls=segs, wall_velocities=(),
+                                         wall_motions=())
 
     @_one_thread
     def add_wall(self, a, b) -> None:

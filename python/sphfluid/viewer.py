@@ -157,7 +157,7 @@ class Renderer:
             t = np.clip((values - low) / (high - low), 0.0, 1.0)
             self.splat_dots(pack(lut)[(t * (len(lut) - 1)).astype(np.int64)])
             self.pygame.surfarray.blit_array(surface, self.pixels)
-        for a, b in self.sim.scene.walls:
+        for a, b in self.sim.walls:  # where they are now (moving walls move)
             (sx, sy) = self.camera.to_screen(np.array([a, b]))
             self.pygame.draw.line(surface, WALL, (sx[0], sy[0]), (sx[1], sy[1]), 2)
         self.draw_flows(surface)
@@ -204,7 +204,7 @@ class Renderer:
             return
         pg, cam = self.pygame, self.camera
         labels = []
-        walls = self.sim.scene.walls
+        walls = self.sim.walls
         for w in probes.walls:
             mid = []
             for k in w.segments:

@@ -286,14 +286,17 @@ void SeedMethod::forces_by_lists() {
 // wall pushes back as hard as the fluid presses, and never pulls. The sum in
 // the units of the pair sums (times seed_scale(): force density).
 template <unsigned F>
-Vec2 SeedMethod::wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& vi) const {
+Vec2 SeedMethod::wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& xi, const Vec2& vi) const {
   const Real w = P_.ghost_mass_ratio / (P_.ghost_density_ratio * P_.rho0);
   const Real p_sum = 2 * std::max(pi, Real(0)), h = kern_.h, l = seed_lap();
   Real sx = 0, sy = 0;
+  // (a moving wall's ghosts move with it: the velocity relative to theirs)
+  const bool moves = ctx_.walls.moves();
   for (const Vec2& r : ghosts) {
     Real tx, ty;
+    const Vec2 u = moves ? VelocityToWall{ctx_.walls, xi, vi}(r) : vi;
     seed::PairForce<(F & kViscosity) != 0>::t(true, h, l, p_sum, r.x(), r.y(), r.squaredNorm(),
-                                              vi.x(), vi.y(), 0.0, 0.0, tx, ty);
+                                              u.x(), u.y(), 0.0, 0.0, tx, ty);
     sx += tx;
     sy += ty;
   }
@@ -316,7 +319,7 @@ void SeedMethod::finish_accelerations(Index i0, Index i1) {
     const Vec2* v = ps.v.data();
     const Real ratio = seed_scale() / s;  // the walls' sum in the pair sums' units
     ctx_.ghosts.rows().for_each_nonempty_row_in(i0, i1, [&](Index i, Row<Vec2> ghosts) {
-      const Vec2 w = wall_sum<F>(ghosts, p[i], v[i]);
+      const Vec2 w = wall_sum<F>(ghosts, p[i], ps.x[i], v[i]);
       a[i] = Vec2(ratio * w.x() + a[i].x(), ratio * w.y() + a[i].y());
     });
   }
@@ -334,7 +337,7 @@ template <unsigned F>
 void SeedMethod::finish_particle(Index i, const Vec2& sum, const Vec2& normal, Real lap_c) {
   ParticleSet& ps = ctx_.ps;
   Vec2 total = sum;
-  if constexpr ((F & kWalls) != 0) total += wall_sum<F>(ctx_.ghosts.row(i), ps.p[i], ps.v[i]);
+  if constexpr ((F & kWalls) != 0) total += wall_sum<F>(ctx_.ghosts.row(i), ps.p[i], ps.x[i], ps.v[i]);
   Vec2 f = force_scale_ * total;
   if constexpr ((F & kSurfaceTension) != 0)
     f += seed::tension(normal, lap_c, P_.sigma, P_.effective_surface_threshold());

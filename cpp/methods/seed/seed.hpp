@@ -91,7 +91,8 @@ class SeedMethod final : public SphMethod {
   template <unsigned F> void forces_by_lists();
   // The walls' share of a particle's density (4.1) and of its pair sums.
   Real ghost_density(Row<Vec2> ghosts) const;
-  template <unsigned F> Vec2 wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& vi) const;
+  template <unsigned F>
+  Vec2 wall_sum(Row<Vec2> ghosts, Real pi, const Vec2& xi, const Vec2& vi) const;
 
   // The pair sums times seed_scale() are force densities (-m/2 spiky_grad),
   // and seed_lap() is the viscosity's factor in them (eta m visc_lap / seed_scale()).

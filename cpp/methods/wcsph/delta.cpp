@@ -278,7 +278,11 @@ void DeltaWcsphMethod::density(Real dt) {
   if constexpr ((F & kWalls) != 0) {
     ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
       Real d = rl[i].x(), l = rl[i].y();
-      delta::add_wall_rate(walls_, ghosts, rho[i], v[i], d);
+      if (ctx_.walls.moves()) {  // the rows move with their wall
+        delta::add_wall_rate(walls_, ghosts, rho[i], VelocityToWall{ctx_.walls, ps.x[i], v[i]}, d);
+      } else {
+        delta::add_wall_rate(walls_, ghosts, rho[i], v[i], d);
+      }
       delta::add_wall_laplacian(walls_, ghosts, l);
       rl[i] = Vec2(d, l);
     });
@@ -439,8 +443,14 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
   const Vec2* v = ps.v.data();
   // W8 and W9's artificial viscosity, the rows at the particle's density
   // (W20); the physical one by W25's rows
-  wcsph::add_wall_force<false>(walls_, kernel_, constants<Real>(), 1 / ir[i], ghosts,
-                               inv_s_ * p[i] * ir[i] * ir[i], ir[i], v[i], f);
+  const wcsph::PairConstants<Real> c = constants<Real>();
+  const Real pi2 = inv_s_ * p[i] * ir[i] * ir[i];
+  if (ctx_.walls.moves()) {  // the ghosts move with their wall
+    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
+                                 VelocityToWall{ctx_.walls, ps.x[i], v[i]}, f);
+  } else {
+    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i], v[i], f);
+  }
   if constexpr ((F & kViscosity) != 0) {
     const Vec2 xi = ps.x[i];
     const WallSet& ws = ctx_.walls;

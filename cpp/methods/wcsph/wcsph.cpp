@@ -195,9 +195,16 @@ void WcsphMethod::forces_by_lists() {
 template <unsigned F>
 void WcsphMethod::add_wall_force(Index i, Vec2& f) const {
   const ParticleSet& ps = ctx_.ps;
-  wcsph::add_wall_force<(F & kViscosity) != 0>(walls_, kernel_, wcsph::pair_constants<Real>(P_), P_.rho0,
-                                                ctx_.ghosts.row(i), por2_[i], inv_rho_[i],
-                                                ps.v[i], f);
+  constexpr bool kVisc = (F & kViscosity) != 0;
+  const wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
+  const Row<Vec2> ghosts = ctx_.ghosts.row(i);
+  if (ctx_.walls.moves()) {  // the ghosts move with their wall
+    wcsph::add_wall_force<kVisc>(walls_, kernel_, c, P_.rho0, ghosts, por2_[i], inv_rho_[i],
+                                 VelocityToWall{ctx_.walls, ps.x[i], ps.v[i]}, f);
+  } else {
+    wcsph::add_wall_force<kVisc>(walls_, kernel_, c, P_.rho0, ghosts, por2_[i], inv_rho_[i],
+                                 ps.v[i], f);
+  }
 }
 
 // a = f + the tension (W12) + g (W13); with half > 0 also the second
