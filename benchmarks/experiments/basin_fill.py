@@ -19,6 +19,8 @@ WIDTH = 0.6  # the basin's inside, m (x from 0.2 to 0.8)
 
 
 def scene(density: str, dx: float) -> dict:
+    solver = ({"free_surface": "pressure_floor"} if density == "pressure_floor"
+              else {"density": density})
     return {
         "format": "sphfluid-scene/1",
         "name": "A tap filling a basin",
@@ -29,7 +31,7 @@ def scene(density: str, dx: float) -> dict:
         "walls": [{"polyline": [[0.2, 0.8], [0.2, 0.0], [0.8, 0.0], [0.8, 0.8]]}],
         "emitters": [{"name": "tap", "at": [0.5, 1.0], "width": 0.1, "speed": 1.0,
                       "stop": 1.5}],
-        "solver": {"method": "wcsph", "time_step": "auto", "density": density},
+        "solver": {"method": "wcsph", "time_step": "auto", **solver},
     }
 
 

@@ -39,6 +39,10 @@ void bind_params(py::module_& m) {
       .def_readwrite("shift_confined", &SimParams::shift_confined,
                      "wcsph with continuity: shift only a flow with no free surface at "
                      "its start")
+      .def_readwrite("surface_pressure", &SimParams::surface_pressure,
+                     "wcsph with continuity: at a free surface floor the pressure at p_b "
+                     "and keep the carried density (W26b), instead of flooring the density "
+                     "at rho0 (W26)")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
       .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
       .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")

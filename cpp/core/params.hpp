@@ -100,6 +100,9 @@ struct SimParams {
   Real delta = 0.1;
   Real shifting = 0;
   bool shift_confined = false;
+  // At a free surface (W26): false floors the density at rho0; true keeps the
+  // carried density and floors the pressure at p_b instead (W26b).
+  bool surface_pressure = false;
 
   // Speed of sound of the method's state equation, and the length in the
   // time-step conditions (the method's registration says: methods/registry.cpp).

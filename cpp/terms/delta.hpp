@@ -75,6 +75,11 @@ inline Real open_surface_sum(const Wendland& W, Real dx, Real vol) {
 inline Real surface_floor(Real rho, Real sum, Real rho0) {
   return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;
 }
+// W26b: or the density stays as carried, and there the pressure is not below
+// the background pressure p_b (no tension at a free surface or in spray).
+inline Real surface_pressure(Real p, Real sum, Real pb) {
+  return sum < kSurfaceSum && p < pb ? pb : p;
+}
 
 // W24: the normalisation of the viscous term (the Laplacian of Morris et al.
 // 1997 with (r . grad W) / r^2 = F exactly): per particle

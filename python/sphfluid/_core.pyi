@@ -66,6 +66,7 @@ class SimParams(metaclass=_Pybind11Type):
     delta: float  # with continuity: density diffusion coefficient (0: none)
     shifting: float  # with continuity: particle shifting coefficient (0: none)
     shift_confined: bool  # with continuity: shift only a flow without a free surface at the start
+    surface_pressure: bool  # with continuity: W26b (pressure floored at a free surface), not W26
     # the fluid and its particles
     h: float  # smoothing length (kernel support), m
     mass: float  # particle mass, kg per metre of depth

@@ -42,6 +42,7 @@ DEFAULT_DENSITY_DIFFUSION = _schema.default("solver", "density_diffusion")
 # wcsph with continuity: the shifting coefficient k (W21), or "auto": AUTO_SHIFTING
 # in a flow with no free surface at its start (a confined one), none in others
 DEFAULT_SHIFTING = _schema.default("solver", "shifting")
+DEFAULT_FREE_SURFACE = _schema.default("solver", "free_surface")
 AUTO_SHIFTING = 8.0
 DEFAULT_SMOOTHING_FACTOR = 2.0  # h = factor * spacing
 CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
@@ -180,6 +181,8 @@ class Scene:
     density: str = "continuity"  # wcsph: "continuity" (W17-W29) or "summation" (W2)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
+    # wcsph with continuity, at a free surface: "density_floor" (W26), "pressure_floor" (W26b)
+    free_surface: str = DEFAULT_FREE_SURFACE
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
     emitters: tuple = ()  # of flows.Emitter: nozzles emitting jets (extension)
@@ -265,6 +268,9 @@ class Scene:
         if self.method == "wcsph" and self.density == "continuity" and \
                 self.shifting != DEFAULT_SHIFTING:
             out["solver"]["shifting"] = self.shifting
+        if self.method == "wcsph" and self.density == "continuity" and \
+                self.free_surface != DEFAULT_FREE_SURFACE:
+            out["solver"]["free_surface"] = self.free_surface
         if self.duration is not None:
             out["duration"] = self.duration
         if self.probes is not None:
@@ -346,6 +352,7 @@ class _Solver(NamedTuple):
     density: Any
     density_diffusion: float | None
     shifting: float | str | None
+    free_surface: str | None
 
 
 class _Fluid(NamedTuple):
@@ -441,7 +448,8 @@ class _Validator:
                       artificial_viscosity=fluid.alpha, periodic=domain.periodic,
                       background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
                       density=solver.density, density_diffusion=solver.density_diffusion,
-                      shifting=solver.shifting, probes=probes, emitters=tuple(emitters),
+                      shifting=solver.shifting, free_surface=solver.free_surface,
+                      probes=probes, emitters=tuple(emitters),
                       sinks=tuple(sinks), source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
         if sinks:
@@ -472,7 +480,8 @@ class _Validator:
         density = self.value(solver, "density", p)
         if method != "wcsph":
             density = "summation"  # the seed's (SPEC.md)
-        elif density is None and not ({"density", "density_diffusion", "shifting"} & set(solver)):
+        elif density is None and not ({"density", "density_diffusion", "shifting",
+                                       "free_surface"} & set(solver)):
             density = None  # default_density's, once the fluid is known
         else:
             density = density or "continuity"
@@ -488,7 +497,8 @@ class _Validator:
             density_diffusion=self.number(solver, "density_diffusion", p,
                                           DEFAULT_DENSITY_DIFFUSION),
             shifting=shifting if isinstance(shifting, str) or shifting is None
-            else float(shifting))
+            else float(shifting),
+            free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE))
 
     def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list
               ) -> tuple[list, list[Region]]:

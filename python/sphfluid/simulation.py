@@ -89,6 +89,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.continuity = scene.method == "wcsph" and scene.density == "continuity"
     if p.continuity:
         p.delta = scene.density_diffusion
+        p.surface_pressure = scene.free_surface == "pressure_floor"  # W26b, else W26
         if scene.shifting == "auto":  # W21: only a flow with no free surface at its start
             p.shifting, p.shift_confined = AUTO_SHIFTING, True
         else:

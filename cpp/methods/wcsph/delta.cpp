@@ -291,10 +291,12 @@ void DeltaWcsphMethod::density(Real dt) {
   Real* lap = lap_.data();
   const Real* sums = sums_.data();
   const Real rho0 = P_.rho0;
+  const bool floor_pressure = P_.surface_pressure;  // W26b, else W26
   Index surface = 0;
 #pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(+ : surface)
   for (Index i = 0; i < n; ++i) {
-    rho_w[i] = delta::surface_floor(rho_w[i] + dt * rl[i].x(), sums[i], rho0);
+    const Real carried = rho_w[i] + dt * rl[i].x();
+    rho_w[i] = floor_pressure ? carried : delta::surface_floor(carried, sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
     if (!shape_known_) surface += sums[i] < open_sum_;
   }
@@ -317,10 +319,13 @@ void DeltaWcsphMethod::state() {
   const Real* rho = ps.rho.data();
   Real* p = ps.p.data();
   Real* inv_rho = inv_rho_.data();
+  const Real* sums = sums_.data();
+  const bool floor_pressure = P_.surface_pressure;  // W26b
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
     const Real r = rho[i] / rho0, r2 = r * r, r3 = r2 * r;
     p[i] = B * (r3 * r3 * r - 1) + pb;
+    if (floor_pressure) p[i] = delta::surface_pressure(p[i], sums[i], pb);
     inv_rho[i] = 1 / rho[i];
   }
   ctx_.timer.mark(kDensity);
