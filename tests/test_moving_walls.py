@@ -158,3 +158,24 @@ def test_a_wall_cannot_both_slide_and_move():
     d["walls"][2]["velocity"] = [0.0, 1.0]
     with pytest.raises(sphfluid.SceneError, match=r"walls\[2\]\.motion: a wall cannot both"):
         sphfluid.load_scene(d)
+
+
+def test_paraview_output_carries_the_moving_wall_per_frame(tmp_path):
+    """--format vtk: a walls file whenever the walls moved since the last frame,
+    listed in frames.pvd at each frame's time, holding the wall where it was."""
+    pytest.importorskip("pyevtk")
+    from test_output import pvd_datasets, segments
+
+    from sphfluid.cli import main
+
+    d = piston("wcsph", {"translation": [[0, 0, 0], [0.2, 0.1, 0], [0.4, 0.0, 0]]})
+    (tmp_path / "p.json").write_text(json.dumps(d))
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "p.json"), "--duration", "0.4", "--out", str(out),
+                 "--format", "vtk", "--every", "0.1", "--quiet"]) == 0
+    walls = {t: f for t, part, _, f in pvd_datasets(out / "frames.pvd") if part == "1"}
+    assert sorted(walls) == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
+    assert len(set(walls.values())) == 5  # each frame's walls differ from the last's
+    for t, f in walls.items():
+        piston_x = segments(out / f)[2][:, 0]
+        assert piston_x == pytest.approx([0.1 - abs(t - 0.2) / 2] * 2, abs=1e-12)
