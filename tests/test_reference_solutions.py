@@ -283,3 +283,28 @@ def test_buchner_wall_pressure_loader_and_error():
         ref.buchner_pressure("P2")
     with pytest.raises(ValueError, match="fewer than 3"):
         ref.mean_pressure_error(np.array([0.0, 2.05]), np.zeros(2))
+
+
+def test_wave_number_solves_the_dispersion_relation():
+    for period, depth in ((1.0, 0.3), (0.5, 2.0), (10.0, 0.1)):
+        k = ref.wave_number(period, depth)
+        omega = 2 * np.pi / period
+        assert 9.81 * k * np.tanh(k * depth) == pytest.approx(omega**2, rel=1e-12)
+    # shallow water: omega = k sqrt(g h); deep: omega^2 = g k
+    assert ref.wave_number(100.0, 0.1) == pytest.approx(2 * np.pi / 100 / np.sqrt(9.81 * 0.1),
+                                                        rel=1e-3)
+    assert ref.wave_number(0.5, 10.0) == pytest.approx((4 * np.pi) ** 2 / 9.81, rel=1e-12)
+    with pytest.raises(ValueError):
+        ref.wave_number(0.0, 1.0)
+
+
+def test_piston_height_ratio_has_its_limits():
+    """H/S -> kh in shallow water (the piston's volume per stroke spreads over one
+    wavelength), -> 2 in deep water; 0.982 at kh = 1 (by hand: 5.524 / 5.627)."""
+    assert ref.piston_height_ratio(1e-3) == pytest.approx(1e-3, rel=1e-3)
+    assert ref.piston_height_ratio(20.0) == pytest.approx(2.0, rel=1e-12)
+    assert ref.piston_height_ratio(1.0) == pytest.approx(
+        2 * (np.cosh(2) - 1) / (np.sinh(2) + 2), rel=1e-15)
+    assert 0.981 < ref.piston_height_ratio(1.0) < 0.983
+    with pytest.raises(ValueError):
+        ref.piston_height_ratio(0.0)

@@ -27,11 +27,13 @@ __all__ = [
     "martin_moyce",
     "mean_front_error",
     "mean_height_error",
+    "piston_height_ratio",
     "poiseuille_centre_max",
     "poiseuille_velocity",
     "taylor_green_decay",
     "taylor_green_pressure",
     "taylor_green_velocity",
+    "wave_number",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -291,6 +293,35 @@ def droplet_frequency(
     """
     _check_mode(mode)
     return float(np.sqrt(mode * (mode**2 - 1) * sigma / ((rho_inner + rho_outer) * radius**3)))
+
+
+def wave_number(period: float, depth: float, g: float = 9.81) -> float:
+    """k of linear water waves of this period on water this deep: the root of the
+    dispersion relation omega^2 = g k tanh(k h), by Newton's method from the
+    deep-water value (it converges for every period and depth)."""
+    if not (period > 0 and depth > 0 and g > 0):
+        raise ValueError("period, depth and g must be > 0")
+    omega2 = (2 * np.pi / period) ** 2
+    k = max(omega2 / g, np.sqrt(omega2 / (g * depth)))
+    for _ in range(100):
+        t = np.tanh(k * depth)
+        f = g * k * t - omega2
+        k_next = k - f / (g * t + g * k * depth * (1 - t * t))
+        if abs(k_next - k) <= 1e-14 * k:
+            return float(k_next)
+        k = k_next
+    return float(k)
+
+
+def piston_height_ratio(kh: float) -> float:
+    """H / S of the waves a piston wave maker makes, linear theory (Biesel & Suquet
+    1951): 2 (cosh 2kh - 1) / (sinh 2kh + 2kh), H the wave height (crest to
+    trough) far from the piston, S its stroke (peak to peak), kh the wave number
+    times the depth. It tends to kh in shallow water and to 2 in deep water."""
+    if not kh > 0:
+        raise ValueError("kh must be > 0")
+    two = 2 * kh
+    return float(2 * (np.cosh(two) - 1) / (np.sinh(two) + two))
 
 
 def droplet_damping_rate(nu: float, radius: float, mode: int = 2) -> float:
