@@ -168,7 +168,12 @@ void Context::exchange() {
   }
   new_x_.clear();
   new_v_.clear();
-  flows.emit(time_, last_dt_, new_x_, new_v_);
+  try {
+    flows.emit(time_, last_dt_, new_x_, new_v_);
+  } catch (const std::length_error& e) {
+    throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " +
+                           fmt(time_ + last_dt_) + " s): " + e.what() + " [check: emitter]");
+  }
   if (new_x_.empty()) return;
   const Index n = size(), k = static_cast<Index>(new_x_.size());
   if (std::int64_t(n) + k >= INT32_MAX)

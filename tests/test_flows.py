@@ -167,6 +167,8 @@ def test_an_emitter_counts_in_the_expected_speed():
     (lambda d: d.update(walls=[[[0.0, 0.45], [0.3, 0.55]]]), "emitters[0]", "crosses its nozzle"),
     (lambda d: d["emitters"][0].update(width=0), "emitters[0].width", ""),
     (lambda d: d["emitters"][0].update(rate=3), "emitters[0].rate", "unknown key"),
+    (lambda d: d["emitters"][0].update(speed=15.0) or d["solver"].update(time_step=2e-3),
+     "emitters[0].speed", "at most one"),
     (lambda d: d.update(sinks=[{"shape": "rectangle", "min": [3, 0], "max": [4, 1]}]),
      "sinks[0]", "outside the domain"),
     (lambda d: d.update(sinks=[{"shape": "circle", "center": [1, 0.5], "radius": 0.2}],
@@ -239,3 +241,9 @@ def test_a_tap_fills_a_basin_to_the_level_its_inflow_predicts(solver, tolerance)
     assert level == pytest.approx(0.25, rel=tolerance)
     if "free_surface" in solver:  # W26b: no tension where the kernel sum is short
         assert sim.pressures.min() >= 0.0
+
+
+def test_a_jet_too_fast_for_its_fluid_is_refused():
+    d = scene("seed", emitters=[jet(speed=5.0)])  # the seed's sound speed: sqrt(20)
+    with pytest.raises(sphfluid.SceneError, match=r"emitters\[0\]\.speed: 5 m/s is not below"):
+        sphfluid.load_scene(d)

@@ -202,6 +202,16 @@ def test_pouring_is_an_emitter_that_ctrl_s_saves(tmp_path, monkeypatch):
     assert replay.balance["in"] == sim.balance["in"]
 
 
+def test_pouring_started_and_stopped_while_paused_leaves_no_emitter(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    at = screen_of(scene, size, (0.5, 0.95))
+    space = [lambda pg: pg.event.Event(pg.KEYDOWN, key=pg.K_SPACE, mod=0)]
+    events = {1: space, 2: hover_and_press(at, "K_e"), 3: hover_and_press(at, "K_e")}
+    sim = scripted_view(scene, events, frames=5, size=size)
+    assert sim.scene.emitters == () and sim.balance["in"] == 0
+
+
 def test_right_drag_pushes_the_fluid(tmp_path):
     scene = falling_block(tmp_path)
     size = (500, 400)

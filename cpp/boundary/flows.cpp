@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <stdexcept>
 #include <string>
 
 namespace sphfluid {
@@ -103,6 +104,13 @@ void Flows::emit(Real t, Real dt, std::vector<Vec2>& x, std::vector<Vec2>& v) {
     Real& s = travelled_[k];
     s += e.speed.integral(from, to);
     if (s < dx_) continue;
+    // A step this long for a jet this fast is an input error, not a flow.
+    if (!(s <= kMaxRows * dx_))
+      throw std::length_error("emitters[" + std::to_string(k) + "] would lay " +
+                              std::to_string(s / dx_) + " rows in one step of " +
+                              std::to_string(dt) + " s (more than " +
+                              std::to_string(kMaxRows) +
+                              "): lower the time step or the emitter's speed");
     const Vec2 across(-e.direction.y(), e.direction.x());
     const auto count = std::max<std::int64_t>(1, std::llround(e.width / dx_));
     const Vec2 u = e.speed.at(t + dt) * e.direction;

@@ -40,6 +40,8 @@ struct Sink {
 
 class Flows {
  public:
+  // The most rows an emitter may lay in one step (std::length_error beyond).
+  static constexpr int kMaxRows = 1000;
   // Throws std::invalid_argument for an emitter or sink that cannot work (a
   // zero direction, a table out of order, a polygon of fewer than 3 points).
   void set(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing);

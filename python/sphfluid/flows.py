@@ -212,6 +212,27 @@ def _speed(v, raw, path: str) -> float | tuple | None:
     return pairs
 
 
+def check_emitter_steps(v, emitters: list, dt: float | None, dx: float | None,
+                        sound: float | None) -> None:
+    """Each jet slower than the fluid's speed of sound (when the scene gives one:
+    the seed's sqrt(gas_constant), wcsph's fluid.speed_of_sound; by default wcsph
+    takes 10 times the jets' speed), and with a fixed time step advancing at most
+    a spacing a step (a row a step; the adaptive step follows the jet)."""
+    for i, e in enumerate(emitters):
+        if sound and e.top_speed() >= sound:
+            v.fail(f"emitters[{i}].speed", f"{e.top_speed():g} m/s is not below the fluid's "
+                   f"speed of sound, {sound:g} m/s: a weakly compressible fluid needs its "
+                   "jets well below it (raise fluid.speed_of_sound or the gas constant)")
+    if dt is None or not dx:
+        return
+    for i, e in enumerate(emitters):
+        if e.top_speed() * dt > dx:
+            v.fail(f"emitters[{i}].speed", f"{e.top_speed():g} m/s at the fixed time step "
+                   f"{dt:g} s moves the jet {e.top_speed() * dt / dx:.3g} spacings a step: "
+                   f"at most one (a time step of at most {dx / e.top_speed():.3g} s, or "
+                   '"time_step": "auto")')
+
+
 def _check_nozzle(v, e: Emitter, path: str, lo, hi, dx: float, walls: list) -> None:
     row = e.row(dx)
     if lo and hi and not ((row >= np.asarray(lo)).all() and (row <= np.asarray(hi)).all()):

@@ -422,7 +422,7 @@ class _Validator:
 
             n_segments = None if any(p.startswith("walls") for p in self.refused) else len(walls)
             probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
-        emitters, sinks = self.flows(d, domain, res, walls)
+        emitters, sinks = self.flows(d, domain, res, walls, solver, fluid)
 
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
@@ -500,15 +500,17 @@ class _Validator:
             else float(shifting),
             free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE))
 
-    def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list
-              ) -> tuple[list, list[Region]]:
+    def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list,
+              solver: _Solver, fluid: _Fluid) -> tuple[list, list[Region]]:
         """The emitters and sinks (extensions; flows.py)."""
         if "emitters" not in d and "sinks" not in d:
             return [], []
-        from .flows import read_emitters
+        from .flows import check_emitter_steps, read_emitters
 
         emitters = read_emitters(self, self.items(d, "emitters"), domain.lo, domain.hi, res.dx,
                                  walls)
+        sound = (math.sqrt(fluid.k) if solver.method == "seed" and fluid.k else fluid.c0)
+        check_emitter_steps(self, emitters, solver.dt, res.dx, sound)
         sinks = [r for i, item in enumerate(self.items(d, "sinks"))
                  if (r := self.region(item, f"sinks[{i}]")) is not None]
         return emitters, sinks

@@ -373,8 +373,11 @@ class Editor:
         sim = self.sim
         if self.emitter is not None:
             emitters = list(sim.scene.emitters)
-            emitters[self.emitter] = dataclasses.replace(emitters[self.emitter], stop=sim.time)
-            self.emitter = None
+            k, self.emitter = self.emitter, None
+            if sim.time > emitters[k].start:
+                emitters[k] = dataclasses.replace(emitters[k], stop=sim.time)
+            else:  # stopped before it began (paused): no emitter at all
+                del emitters[k]
             sim.set_emitters(emitters)
             return "pouring stopped"
         e = Emitter(at=self.world(px, py), width=3 * sim.scene.spacing, speed=self.EMIT_SPEED,
