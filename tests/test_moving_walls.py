@@ -153,6 +153,18 @@ def test_bad_motions_are_refused_by_json_path(motion, where, words):
     assert lines and words in lines[0], str(e.value)
 
 
+def test_a_fixed_step_may_not_let_a_wall_outrun_it():
+    """At most half a support a step: the piston returns at 6 m/s; the seed's
+    support is 0.04 m, so 0.003 s (0.45 supports) passes and 0.01 s does not."""
+    d = piston("seed", FAST_PISTON)
+    d["solver"]["time_step"] = 0.003
+    sphfluid.load_scene(d)
+    d["solver"]["time_step"] = 0.01
+    with pytest.raises(sphfluid.SceneError, match=r"walls\[2\]\.motion: moves the wall up to "
+                       r"6 m/s, 1.5 supports a fixed step"):
+        sphfluid.load_scene(d)
+
+
 def test_a_wall_cannot_both_slide_and_move():
     d = piston("wcsph", FAST_PISTON)
     d["walls"][2]["velocity"] = [0.0, 1.0]

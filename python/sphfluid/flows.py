@@ -93,6 +93,15 @@ class WallMotion:
     def times(self) -> list[float]:
         return sorted({row[0] for row in self.translation} | {row[0] for row in self.rotation})
 
+    def top_speed(self, points) -> float:
+        """The fastest any of these drawn points moves over the tables, m/s (the
+        steepest translation plus the steepest turn times the farthest point)."""
+        def steepest(rows, cols):
+            return max((math.hypot(*[(q[c] - p[c]) / (q[0] - p[0]) for c in cols])
+                        for p, q in zip(rows, rows[1:])), default=0.0)
+        reach = max(math.dist(p, self.about) for p in points)
+        return steepest(self.translation, (1, 2)) + steepest(self.rotation, (1,)) * reach
+
     def place(self, points, t: float) -> np.ndarray:
         """Where drawn points (k, 2) are at time t."""
         tt = [row[0] for row in self.translation]
@@ -135,9 +144,24 @@ def read_motion(v, item: dict, path: str, first_point) -> WallMotion | None:
     return WallMotion(rows["translation"], rows["rotation"], about)
 
 
-def check_motions(v, walls: list, motions: list, paths: list, lo, hi) -> None:
+def check_motions(v, walls: list, motions: list, paths: list, lo, hi,
+                  dt: float | None = None, h: float | None = None) -> None:
     """Moving walls stay inside the domain: their ends at each table time (and
-    halfway between, for a turn), by the wall's JSON path."""
+    halfway between, for a turn), by the wall's JSON path; with a fixed time step
+    dt, none moves more than half the support h a step (the adaptive step keeps
+    them within its CFL condition by itself)."""
+    if dt and h:
+        slow = set()
+        for (a, b), m, path in zip(walls, motions, paths):
+            if m is None or path in slow:
+                continue
+            speed = m.top_speed([a, b])
+            if speed * dt > 0.5 * h:
+                slow.add(path)
+                v.fail(f"{path}.motion", f"moves the wall up to {speed:.3g} m/s, "
+                       f"{speed * dt / h:.3g} supports a fixed step of {dt:g} s: at most "
+                       f"half (a time step of at most {0.5 * h / speed:.3g} s, or "
+                       '"time_step": "auto")')
     if not (lo and hi):
         return
     reported = set()

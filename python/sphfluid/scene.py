@@ -441,7 +441,7 @@ class _Validator:
                       surface_tension=fluid.sigma, particle_mass=res.mass,
                       regions=tuple(regions), walls=tuple(walls), method=solver.method,
                       wall_velocities=self.wall_velocities(),
-                      wall_motions=self.wall_motions(domain),
+                      wall_motions=self.wall_motions(domain, solver, res),
                       duration=duration, wall_restitution=solver.restitution,
                       surface_threshold=solver.threshold, cfl=solver.cfl,
                       on_instability=solver.on_instability, speed_of_sound=fluid.c0,
@@ -608,14 +608,15 @@ class _Validator:
             return None
         return read_motion(self, item, path, item["polyline"][0])
 
-    def wall_motions(self, domain: _Domain) -> tuple:
+    def wall_motions(self, domain: _Domain, solver: _Solver, res: _Resolution) -> tuple:
         """Per segment, its motion; () when none moves. Checks they stay inside."""
         motions = getattr(self, "_motions", [])
         if not any(m is not None for m in motions):
             return ()
         from .flows import check_motions
 
-        check_motions(self, self._segments, motions, self._wall_paths, domain.lo, domain.hi)
+        check_motions(self, self._segments, motions, self._wall_paths, domain.lo, domain.hi,
+                      solver.dt, res.h)
         return tuple(motions)
 
     def polyline(self, item: dict, path: str) -> list[tuple[Point, Point]]:
