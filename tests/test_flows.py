@@ -209,6 +209,10 @@ def test_placing_particles_through_the_api_keeps_the_balance():
     assert balanced(sim) and sim.n_particles == 4
 
 
+def _rect(x0, y0, x1, y1) -> dict:
+    return {"shape": "rectangle", "min": [x0, y0], "max": [x1, y1]}
+
+
 def basin(solver: dict) -> dict:
     """A tap 0.1 m wide at 1 m/s for 1.5 s, 0.2 m above the rim of a basin 0.6 m
     wide (benchmarks/experiments/basin_fill.py): 375 particles, 0.25 m of water."""
@@ -239,8 +243,24 @@ def test_a_tap_fills_a_basin_to_the_level_its_inflow_predicts(solver, tolerance)
     middle = np.abs(x[:, 0] - 0.5) < 0.2
     level = np.percentile(x[middle, 1], 98) + 0.5 * DX
     assert level == pytest.approx(0.25, rel=tolerance)
-    if "free_surface" in solver:  # W26b: no tension where the kernel sum is short
-        assert sim.pressures.min() >= 0.0
+
+
+@pytest.mark.parametrize("free_surface", ["density_floor", "pressure_floor"])
+def test_spray_keeps_its_stretched_density_under_w26b_and_no_tension(free_surface):
+    """Two particles flying apart: the carried density falls as they separate.
+    W26 floors it at rho0; W26b keeps it (886.7 kg/m^3 here) and floors the
+    pressure at p_b = 0 instead: no tension in either."""
+    d = scene("wcsph", fluid_regions=[_rect(0.9, 0.48, 0.94, 0.5)])
+    d["solver"]["free_surface"] = free_surface
+    sim = sphfluid.Simulation(d)
+    sim.set_state(sim.positions.copy(), np.array([[-1.0, 0.0], [1.0, 0.0]]))
+    sim.step(300)
+    assert np.ptp(sim.positions[:, 0]) > 0.07  # apart, beyond each other's support
+    assert (sim.pressures == 0.0).all()
+    if free_surface == "density_floor":
+        assert (sim.densities == 1000.0).all()
+    else:
+        assert (sim.densities < 900.0).all()
 
 
 def test_a_jet_too_fast_for_its_fluid_is_refused():
