@@ -174,8 +174,24 @@ void Context::exchange() {
     throw InstabilityError("step " + std::to_string(step_count_ + 1) + " (t = " +
                            fmt(time_ + last_dt_) + " s): " + e.what() + " [check: emitter]");
   }
-  if (new_x_.empty()) return;
-  const Index n = size(), k = static_cast<Index>(new_x_.size());
+  if (!new_x_.empty()) append(size());
+  if (flows.has_inlets()) hold_inlets();
+}
+
+void Context::flows_set() {
+  if (flows.has_outlets() && !held_) {
+    held_ = std::make_unique<Field<std::int8_t>>(ps, "outlet_held", FieldKind::kState);
+  } else if (!flows.has_outlets()) {
+    held_.reset();
+  }
+  new_x_.clear();
+  new_v_.clear();
+  flows.fill_inlets(time_, new_x_, new_v_);
+  if (!new_x_.empty()) append(size());
+}
+
+void Context::append(Index n) {
+  const Index k = static_cast<Index>(new_x_.size());
   if (std::int64_t(n) + k >= INT32_MAX)
     throw std::length_error("the emitters would pass the core's particle limit (2^31 - 1)");
   Id top = -1;  // fresh ids: one above the largest in use
@@ -186,12 +202,82 @@ void Context::exchange() {
     ps.x[n + i] = new_x_[i];
     ps.v[n + i] = new_v_[i];
     ps.id[n + i] = top + 1 + i;
+    if (held_) (*held_)[n + i] = 0;
   }
   // The new particles' energy enters the guard's budget once they are
   // evaluated, at the next integration (budget_stale).
   budget_stale = true;
   balance.entered += k;
   if (on_added) on_added(n);
+}
+
+// The particles in an outlet's buffer move straight out at the mean speed
+// across the line of the fluid within a support before it in their lane (a
+// zero gradient: a lane's particles keep their distances, and none drifts
+// into a wall beside the buffer): the step's accelerations are taken back
+// from their velocity and path. A lane whose fluid flows back (or that has
+// none) leaves its particles free. Past the buffer they leave (counted as
+// out). The lanes' sums run in index order, as many threads as there are.
+void Context::hold_outlets() {
+  const Index n = size();
+  Vec2* x = ps.x.data();
+  Vec2* v = ps.v.data();
+  std::int8_t* held = held_->data();
+  Real* rho = ps.rho.data();
+  const Real dt = last_dt_, reach = params_.h;
+  places_.resize(n);
+  Flows::Place* place = places_.data();
+  int leaving = 0;
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(| : leaving)
+  for (Index i = 0; i < n; ++i) {
+    place[i] = flows.outlet_place(x[i], reach);
+    leaving |= place[i].zone == Flows::kPast;
+  }
+  lane_sum_.assign(flows.lanes(), 0);
+  lane_count_.assign(flows.lanes(), 0);
+  const auto lane_outlet = [&](int lane) -> const Outlet& {
+    std::size_t k = 0;
+    while (k + 1 < flows.outlets().size() && lane >= flows.first_lane(k + 1)) ++k;
+    return flows.outlets()[k];
+  };
+  for (Index i = 0; i < n; ++i)
+    if (place[i].zone == Flows::kUpstream && !held[i]) {
+      lane_sum_[place[i].lane] += v[i].dot(lane_outlet(place[i].lane).direction);
+      ++lane_count_[place[i].lane];
+    }
+  std::vector<Vec2> lane_v(flows.lanes(), Vec2::Zero());
+  for (int l = 0; l < flows.lanes(); ++l)
+    if (lane_count_[l] > 0 && lane_sum_[l] > 0)
+      lane_v[l] = lane_sum_[l] / Real(lane_count_[l]) * lane_outlet(l).direction;
+  // The carried density (continuity) held at rho0: the outlet's pressure is
+  // the reference pressure (a summed density's is set by the method).
+  const bool pressure = params_.continuity;
+  const Real rho0 = params_.rho0;
+#pragma omp parallel for schedule(static) num_threads(team())
+  for (Index i = 0; i < n; ++i) {
+    held[i] = place[i].zone == Flows::kHeld && lane_v[place[i].lane].squaredNorm() > 0;
+    if (!held[i]) continue;
+    const Vec2 u = lane_v[place[i].lane];
+    x[i] -= dt * (v[i] - u);
+    v[i] = u;
+    if (pressure) rho[i] = rho0;
+  }
+  search.grid().drop_ahead();  // positions changed since the integration looked ahead
+  if (leaving)
+    balance.out += remove_where(0, [&](const Vec2& p) {
+      return flows.outlet_place(p, reach).zone == Flows::kPast;
+    });
+}
+
+// The inlets' buffers on their lattice, at the inflow velocity of the step's end.
+void Context::hold_inlets() {
+  const Index n = size();
+  Vec2* x = ps.x.data();
+  Vec2* v = ps.v.data();
+  const Real t = time_ + last_dt_;
+#pragma omp parallel for schedule(static) num_threads(team())
+  for (Index i = 0; i < n; ++i) flows.hold_in_inlet(t, x[i], v[i]);
+  search.grid().drop_ahead();
 }
 
 void Context::wrap_positions() {

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -65,9 +66,10 @@ class Context {
   // Wall crossings the collisions stopped (bounces and stops), over the run.
   std::int64_t wall_crossings() const { return wall_crossings_; }
   // The particle count's balance: placed (set and added through the API,
-  // less those replaced) + entered (emitters) - sunk - removed = size().
+  // less those replaced) + entered (emitters and inlets) - out (outlets) -
+  // sunk - removed = size().
   struct Balance {
-    std::int64_t placed = 0, entered = 0, sunk = 0;
+    std::int64_t placed = 0, entered = 0, out = 0, sunk = 0;
   };
   Balance balance;
   // The clock and the counts as a checkpoint holds them.
@@ -105,21 +107,32 @@ class Context {
   // is known, into a fresh buffer: a non-finite result keeps the half-step
   // velocities (InstabilityError).
   void add_gravity_and_kick(Real half, const Vec2* extra);
-  // After the drift: moving walls move to the step's end; particles that
-  // left the domain are removed (and counted), unless the integration saw
-  // every particle inside; then the sinks and emitters act (exchange).
+  // After the drift: moving walls move to the step's end; the outlets act;
+  // particles that left the domain are removed (and counted), unless the
+  // integration saw every particle inside; then the sinks, emitters and
+  // inlets act (exchange).
   void leave_domain() {
     if (walls.moves()) {  // the walls where the step ends, for its evaluation
       walls.move_to(time_ + last_dt_);
       ghosts.stale();
     }
+    // (what passed an outlet's buffer leaves as out, even across the domain's edge)
+    if (flows.has_outlets()) hold_outlets();
     if (!all_inside_) remove_outside_domain();
     if (flows.any()) exchange();
   }
   void remove_outside_domain();
   // The sinks remove what is inside them, the emitters add this step's rows
-  // (with the step's end time, time() + last_dt()), each counted.
+  // (with the step's end time, time() + last_dt()), each counted, and the
+  // inlets hold their buffers on their lattice.
   void exchange();
+  // With outlets, per particle: 1 when held in an outlet's buffer, where a
+  // method whose density is summed sets the reference pressure (a carried
+  // density is held at rho0 there); null without outlets.
+  const std::int8_t* outlet_held() const { return held_ ? held_->data() : nullptr; }
+  // The flows changed: the outlets' per-particle fields made (or dropped),
+  // and the inlets' buffers added at time() (counted as entered).
+  void flows_set();
   // Called with the first index of particles just appended (the method gives
   // them its initial values; set by the Solver).
   std::function<void(Index)> on_added;
@@ -195,6 +208,15 @@ class Context {
   bool all_inside_ = false;
   std::vector<char> keep_;  // scratch for domain removal
   std::vector<Vec2> new_x_, new_v_;  // scratch for the emitters' rows
+  // Per particle, with outlets: whether it is held in an outlet's buffer.
+  std::unique_ptr<Field<std::int8_t>> held_;
+  std::vector<Flows::Place> places_;  // scratch for the outlets
+  std::vector<Real> lane_sum_;
+  std::vector<Index> lane_count_;
+  // The outlets hold their buffers' velocities and let out what passed them.
+  void hold_outlets();
+  void hold_inlets();
+  void append(Index first_new);  // new_x_, new_v_ as particles
   // Remove the particles for which out(x, v) holds; returns how many.
   template <class Out>
   Index remove_where(Index first_out, Out out);

@@ -94,8 +94,14 @@ void Solver::set_wall_motions(std::vector<WallMotion> motions,
   compute_energy_budget();
 }
 
-void Solver::set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing) {
-  ctx_.flows.set(std::move(emitters), std::move(sinks), spacing);
+void Solver::set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks,
+                       std::vector<Outlet> outlets, Real spacing) {
+  ctx_.flows.set(std::move(emitters), std::move(sinks), std::move(outlets), spacing);
+  const Index before = ctx_.size();
+  ctx_.flows_set();
+  if (ctx_.size() == before) return;
+  compute_forces();  // the inlets' buffers, evaluated with the rest
+  compute_energy_budget();
 }
 
 void Solver::set_threads(int threads) {
@@ -262,6 +268,10 @@ void Solver::compute_energy_budget() {
   Real drag = 0.5 * n * m * ctx_.walls.top_speed() * ctx_.walls.top_speed();
   for (const Segment& w : ctx_.walls.segments())
     drag = std::max(drag, 0.5 * n * m * w.velocity.squaredNorm());
+  // An inlet pushes the fluid ahead of it; where the flow narrows or takes a
+  // profile it runs faster than the inflow: twice its top speed is allowed.
+  const Real inflow = 2 * ctx_.flows.top_inflow_speed();
+  drag = std::max(drag, 0.5 * n * m * inflow * inflow);
   ctx_.energy_budget = kinetic + release + elastic + surface + floor + drag;
   ctx_.energy_removed = 0;
 }

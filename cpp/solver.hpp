@@ -75,10 +75,12 @@ class Solver {
   // Moving walls (WallSet::set_motions): motion_of[k] is segment k's motion
   // or -1; the walls as they are now are their drawn positions.
   void set_wall_motions(std::vector<WallMotion> motions, const std::vector<Index>& motion_of);
-  // Replace the emitters and sinks (boundary/flows.hpp); they act from the
-  // next step, the emitters' rows on the lattice of this spacing (m). Throws
+  // Replace the emitters, inlets, sinks and outlets (boundary/flows.hpp);
+  // they act from the next step, the emitters' rows on the lattice of this
+  // spacing (m); the inlets' buffers are placed now. Throws
   // std::invalid_argument for one that cannot work.
-  void set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing);
+  void set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks,
+                 std::vector<Outlet> outlets, Real spacing);
   const Flows& flows() const { return ctx_.flows; }
   const Context::Balance& balance() const { return ctx_.balance; }
   void set_threads(int threads);

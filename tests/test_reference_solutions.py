@@ -308,3 +308,12 @@ def test_piston_height_ratio_has_its_limits():
     assert 0.981 < ref.piston_height_ratio(1.0) < 0.983
     with pytest.raises(ValueError):
         ref.piston_height_ratio(0.0)
+
+
+def test_channel_velocity_carries_its_mean_and_sticks_to_the_walls():
+    """Plane Poiseuille flow with mean U: 0 at both walls, 1.5 U in the middle,
+    and its average over the gap U (Simpson's rule is exact for a parabola)."""
+    y = np.linspace(0.0, 0.2, 3)
+    u = ref.channel_velocity(y, 0.2, 0.3)
+    assert u[0] == u[-1] == 0.0 and u[1] == pytest.approx(0.45, rel=1e-15)
+    assert (u[0] + 4 * u[1] + u[2]) / 6 == pytest.approx(0.3, rel=1e-15)

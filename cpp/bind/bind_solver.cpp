@@ -42,7 +42,17 @@ Emitter to_emitter(const py::dict& d) {
   e.speed.value = d["speeds"].cast<std::vector<Real>>();
   e.start = d["start"].cast<Real>();
   e.stop = d["stop"].cast<Real>();
+  if (d.contains("buffer")) e.buffer = d["buffer"].cast<Real>();
   return e;
+}
+
+Outlet to_outlet(const py::dict& d) {
+  Outlet o;
+  o.at = to_point(d["at"]);
+  o.direction = to_point(d["direction"]);
+  o.width = d["width"].cast<Real>();
+  o.depth = d["depth"].cast<Real>();
+  return o;
 }
 
 Sink to_sink(const py::dict& d) {
@@ -169,19 +179,25 @@ void def_editing(SolverClass& c) {
           "motion or -1. The walls as they are now are the drawn ones.")
       .def(
           "set_flows",
-          [](Solver& s, const py::list& emitters, const py::list& sinks, Real spacing) {
+          [](Solver& s, const py::list& emitters, const py::list& sinks, Real spacing,
+             const py::list& outlets) {
             std::vector<Emitter> es;
             std::vector<Sink> ks;
+            std::vector<Outlet> os;
             for (const py::handle& item : emitters) es.push_back(to_emitter(item.cast<py::dict>()));
             for (const py::handle& item : sinks) ks.push_back(to_sink(item.cast<py::dict>()));
-            s.set_flows(std::move(es), std::move(ks), spacing);
+            for (const py::handle& item : outlets) os.push_back(to_outlet(item.cast<py::dict>()));
+            s.set_flows(std::move(es), std::move(ks), std::move(os), spacing);
           },
           py::arg("emitters"), py::arg("sinks"), py::arg("spacing"),
-          "Replace the emitters and sinks; they act from the next step, the emitters' rows "
-          "on the lattice of `spacing` (m). An emitter is a dict "
-          "with 'at' [x, y], 'direction' [dx, dy], 'width' (m), 'times' and 'speeds' (a "
-          "table, linear between its times), 'start' and 'stop' (s); a sink one with "
-          "'polygon' [[x, y], ...] or 'centre' [x, y] and 'radius'.");
+          py::arg("outlets") = py::list(),
+          "Replace the emitters (and inlets), sinks and outlets; they act from the next "
+          "step, the emitters' rows on the lattice of `spacing` (m); the inlets' buffers are "
+          "placed now. An emitter is a dict with 'at' [x, y], 'direction' [dx, dy], 'width' "
+          "(m), 'times' and 'speeds' (a table, linear between its times), 'start' and 'stop' "
+          "(s), and for an inlet 'buffer' (its depth behind 'at', m); a sink one with "
+          "'polygon' [[x, y], ...] or 'centre' [x, y] and 'radius'; an outlet one with 'at', "
+          "'direction' (out of the fluid), 'width' and 'depth' (m).");
 }
 
 // A checkpoint as a dict: "fields" (name -> an array of the field's numbers,
@@ -211,6 +227,7 @@ py::dict snapshot_to_dict(const Snapshot& s) {
   d["energy_removed"] = s.energy_removed;
   d["particles_placed"] = s.balance.placed;
   d["particles_in"] = s.balance.entered;
+  d["particles_out"] = s.balance.out;
   d["particles_sunk"] = s.balance.sunk;
   d["emitter_travel"] = s.emitter_travel;
   d["method"] = s.method;
@@ -250,6 +267,7 @@ Snapshot snapshot_from_dict(const py::dict& d) {
   s.energy_removed = d["energy_removed"].cast<Real>();
   s.balance.placed = d["particles_placed"].cast<std::int64_t>();
   s.balance.entered = d["particles_in"].cast<std::int64_t>();
+  s.balance.out = d.contains("particles_out") ? d["particles_out"].cast<std::int64_t>() : 0;
   s.balance.sunk = d["particles_sunk"].cast<std::int64_t>();
   s.emitter_travel = d["emitter_travel"].cast<std::vector<Real>>();
   s.method = d["method"].cast<std::vector<Real>>();
@@ -311,12 +329,14 @@ void def_diagnostics(SolverClass& c) {
             py::dict d;
             d["placed"] = s.balance().placed;
             d["in"] = s.balance().entered;
+            d["out"] = s.balance().out;
             d["sunk"] = s.balance().sunk;
             d["lost"] = s.removed();
             return d;
           },
           "the particle count's balance: 'placed' (set and added through the API, less "
-          "those replaced) + 'in' (emitters) - 'sunk' - 'lost' (left the domain) = n_particles")
+          "those replaced) + 'in' (emitters, inlets) - 'out' (outlets) - 'sunk' - 'lost' (left "
+          "the domain) = n_particles")
       .def_property_readonly("wall_crossings", &Solver::wall_crossings,
                              "wall crossings the wall collisions stopped (each bounce, and "
                              "each stop in front of a wall), over the run")

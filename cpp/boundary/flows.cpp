@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <stdexcept>
 #include <string>
 
 namespace sphfluid {
@@ -49,6 +48,16 @@ void prepare(Emitter& e, const std::string& name) {
     check(i == 0 || s.t[i] > s.t[i - 1], name + ": the speed table's times must increase");
   }
   check(std::isfinite(e.start) && !(e.stop < e.start), name + ": stop must not be before start");
+  check(std::isfinite(e.buffer) && e.buffer >= 0, name + ": the buffer's depth must be >= 0");
+}
+
+void prepare(Outlet& o, const std::string& name) {
+  const Real len = o.direction.norm();
+  check(o.at.allFinite() && std::isfinite(len) && len > 0,
+        name + ": needs a finite position and a non-zero direction");
+  o.direction /= len;
+  check(std::isfinite(o.width) && o.width > 0, name + ": width must be > 0");
+  check(std::isfinite(o.depth) && o.depth > 0, name + ": the buffer's depth must be > 0");
 }
 
 // The sink's bounding box, and its numbers checked.
@@ -70,19 +79,55 @@ void prepare(Sink& s, const std::string& name) {
 
 }  // namespace
 
-void Flows::set(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing) {
+// An inlet set again as it was keeps its travel (its buffer's rows are in the
+// run); a new one is filled by fill_inlets.
+void Flows::keep_inlets(const std::vector<Emitter>& emitters, std::vector<Real>& travelled,
+                        std::vector<char>& filled) {
+  for (std::size_t k = 0; k < emitters.size(); ++k) {
+    const Emitter& e = emitters[k];
+    if (!(e.buffer > 0)) continue;
+    for (std::size_t j = 0; j < emitters_.size(); ++j) {
+      const Emitter& old = emitters_[j];
+      if (filled_[j] && old.buffer == e.buffer && old.at == e.at &&
+          old.direction == e.direction && old.width == e.width) {
+        travelled[k] = travelled_[j];
+        filled[k] = 1;
+        filled_[j] = 0;  // each old buffer serves one new inlet
+        break;
+      }
+    }
+  }
+}
+
+void Flows::set(std::vector<Emitter> emitters, std::vector<Sink> sinks,
+                std::vector<Outlet> outlets, Real spacing) {
   check(std::isfinite(spacing) && spacing > 0, "flows: the spacing must be > 0");
-  for (std::size_t k = 0; k < emitters.size(); ++k)
+  inlets_ = 0;
+  for (std::size_t k = 0; k < emitters.size(); ++k) {
     prepare(emitters[k], "emitters[" + std::to_string(k) + "]");
+    inlets_ += emitters[k].buffer > 0;
+  }
+  for (std::size_t k = 0; k < outlets.size(); ++k)
+    prepare(outlets[k], "outlets[" + std::to_string(k) + "]");
   Vec2 lo = Vec2::Constant(std::numeric_limits<Real>::infinity()), hi = -lo;
   for (std::size_t k = 0; k < sinks.size(); ++k) {
     prepare(sinks[k], "sinks[" + std::to_string(k) + "]");
     lo = lo.cwiseMin(sinks[k].lo);
     hi = hi.cwiseMax(sinks[k].hi);
   }
+  std::vector<Real> travelled(emitters.size(), spacing);
+  std::vector<char> filled(emitters.size(), 0);
+  if (spacing == dx_) keep_inlets(emitters, travelled, filled);
   emitters_ = std::move(emitters);
   sinks_ = std::move(sinks);
-  travelled_.assign(emitters_.size(), spacing);
+  outlets_ = std::move(outlets);
+  first_lane_.assign(1, 0);
+  for (const Outlet& o : outlets_)
+    first_lane_.push_back(first_lane_.back() +
+                          static_cast<int>(std::max<std::int64_t>(1, std::llround(o.width / spacing))));
+  lanes_ = first_lane_.back();
+  travelled_ = std::move(travelled);
+  filled_ = std::move(filled);
   lo_ = lo;
   hi_ = hi;
   dx_ = spacing;
@@ -111,18 +156,89 @@ void Flows::emit(Real t, Real dt, std::vector<Vec2>& x, std::vector<Vec2>& v) {
                               std::to_string(dt) + " s (more than " +
                               std::to_string(kMaxRows) +
                               "): lower the time step or the emitter's speed");
-    const Vec2 across(-e.direction.y(), e.direction.x());
-    const auto count = std::max<std::int64_t>(1, std::llround(e.width / dx_));
     const Vec2 u = e.speed.at(t + dt) * e.direction;
-    for (; s >= dx_; s -= dx_) {
-      const Real along = s - dx_;  // the new row is a spacing behind the last one
-      for (std::int64_t j = 0; j < count; ++j) {
-        const Real off = (Real(j) + Real(0.5) - Real(0.5) * Real(count)) * dx_;
-        x.push_back(e.at + along * e.direction + off * across);
-        v.push_back(u);
-      }
-    }
+    for (; s >= dx_; s -= dx_) row(e, s - dx_, u, x, v);  // a spacing behind the last row
   }
+}
+
+std::int64_t Flows::row_count(const Emitter& e) const {
+  return std::max<std::int64_t>(1, std::llround(e.width / dx_));
+}
+
+// A row `along` (m) ahead of where the emitter's rows start: its nozzle, or
+// an inlet's buffer's back.
+void Flows::row(const Emitter& e, Real along, const Vec2& u, std::vector<Vec2>& x,
+                std::vector<Vec2>& v) const {
+  const Vec2 across(-e.direction.y(), e.direction.x());
+  const Vec2 base = e.at + (along - e.buffer) * e.direction;
+  const std::int64_t count = row_count(e);
+  for (std::int64_t j = 0; j < count; ++j) {
+    x.push_back(base + (Real(j) + Real(0.5) - Real(0.5) * Real(count)) * dx_ * across);
+    v.push_back(u);
+  }
+}
+
+// The inflow's velocity at t: the speed table's within [start, stop), else 0.
+Vec2 Flows::inflow(const Emitter& e, Real t) const {
+  return t >= e.start && t < e.stop ? Vec2(e.speed.at(t) * e.direction) : Vec2(Vec2::Zero());
+}
+
+void Flows::fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v) {
+  for (std::size_t k = 0; k < emitters_.size(); ++k) {
+    const Emitter& e = emitters_[k];
+    if (!(e.buffer > 0) || filled_[k]) continue;
+    filled_[k] = 1;
+    const auto rows = std::max<std::int64_t>(1, std::llround(e.buffer / dx_));
+    for (std::int64_t r = 0; r < rows; ++r) row(e, (Real(r) + Real(0.5)) * dx_, inflow(e, t), x, v);
+    travelled_[k] = Real(0.5) * dx_;  // the back row's travel from the back
+  }
+}
+
+bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
+  for (std::size_t k = 0; k < emitters_.size(); ++k) {
+    const Emitter& e = emitters_[k];
+    if (!(e.buffer > 0)) continue;
+    const Vec2 rel = x - e.at;
+    const Real along = rel.dot(e.direction);
+    if (!(along < 0 && along >= -e.buffer)) continue;
+    const Vec2 across(-e.direction.y(), e.direction.x());
+    const std::int64_t count = row_count(e);
+    const Real half = Real(0.5) * Real(count) * dx_;
+    const Real off = rel.dot(across);
+    if (!(std::abs(off) <= half)) continue;
+    // The rows stand at travel + m dx from the back, the columns at
+    // (j + 1/2) dx from the edge.
+    const Real s = travelled_[k];
+    const Real m = std::round((along + e.buffer - s) / dx_);
+    const Real j = std::clamp(std::floor((off + half) / dx_), Real(0), Real(count - 1));
+    x = e.at + (s + m * dx_ - e.buffer) * e.direction + ((j + Real(0.5)) * dx_ - half) * across;
+    v = inflow(e, t);
+    return true;
+  }
+  return false;
+}
+
+Real Flows::top_inflow_speed() const {
+  Real top = 0;
+  for (const Emitter& e : emitters_)
+    if (e.buffer > 0)
+      for (Real u : e.speed.value) top = std::max(top, u);
+  return top;
+}
+
+Flows::Place Flows::outlet_place(const Vec2& p, Real reach) const {
+  for (std::size_t k = 0; k < outlets_.size(); ++k) {
+    const Outlet& o = outlets_[k];
+    const Vec2 rel = p - o.at;
+    const Real along = rel.dot(o.direction);
+    if (!(along >= -reach && along < 2 * o.depth)) continue;
+    const Real off = rel.x() * -o.direction.y() + rel.y() * o.direction.x();
+    if (!(std::abs(off) <= Real(0.5) * o.width)) continue;
+    const int lanes = first_lane_[k + 1] - first_lane_[k];
+    const int lane = std::clamp(static_cast<int>((off / o.width + Real(0.5)) * lanes), 0, lanes - 1);
+    return {along < 0 ? kUpstream : along < o.depth ? kHeld : kPast, first_lane_[k] + lane};
+  }
+  return {};
 }
 
 void Flows::set_travelled(const std::vector<Real>& travelled) {
@@ -131,6 +247,7 @@ void Flows::set_travelled(const std::vector<Real>& travelled) {
             " emitters, this run has " + std::to_string(emitters_.size()));
   for (Real s : travelled) check(std::isfinite(s) && s >= 0, "checkpoint: an emitter's travel");
   travelled_ = travelled;
+  filled_.assign(emitters_.size(), 1);  // the checkpoint holds the buffers
 }
 
 }  // namespace sphfluid

@@ -1,8 +1,13 @@
 // Where fluid enters and leaves a run besides its start and the domain's
 // edge: emitters, nozzles that emit a jet on the lattice of the scene's
-// spacing, and sinks, regions that remove whatever enters them. The Context
-// applies both once a step, after the drift (Context::exchange), so every
-// method has them and pays nothing without them.
+// spacing; inlets, emitters whose rows start in a buffer behind the inlet's
+// line and are held there on the lattice at the inflow velocity, so that the
+// fluid beyond the line has its full kernel support; outlets, lines beyond
+// which particles keep the velocity they crossed with (a buffer as deep as an
+// inlet's) until they leave the buffer's far side; and sinks, regions that
+// remove whatever enters them. The Context applies them once a step, after
+// the drift (Context::exchange), so every method has them and pays nothing
+// without them.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +30,22 @@ struct Emitter {
   TimeTable speed;
   Real start = 0;
   Real stop = std::numeric_limits<Real>::infinity();
+  // > 0: an inlet whose rows start this far (m) behind `at` and are held on
+  // the lattice, moving at the speed along `direction`, until they cross
+  // the line through `at`; the buffer starts full.
+  Real buffer = 0;
+};
+
+// A line centred at `at`, `width` across, that particles cross along
+// `direction` (a unit vector, out of the fluid) into a buffer `depth` deep:
+// there they move along `direction` at the speed the fluid has just before
+// the line in their lane (a zero gradient), and leave the run past the
+// buffer's far side.
+struct Outlet {
+  Vec2 at = Vec2::Zero();
+  Vec2 direction = Vec2(1, 0);
+  Real width = 0;
+  Real depth = 0;
 };
 
 // A region that removes the particles inside it: a polygon (a rectangle is
@@ -44,13 +65,40 @@ class Flows {
   static constexpr int kMaxRows = 1000;
   // Throws std::invalid_argument for an emitter or sink that cannot work (a
   // zero direction, a table out of order, a polygon of fewer than 3 points).
-  void set(std::vector<Emitter> emitters, std::vector<Sink> sinks, Real spacing);
-  bool any() const { return !emitters_.empty() || !sinks_.empty(); }
+  void set(std::vector<Emitter> emitters, std::vector<Sink> sinks, std::vector<Outlet> outlets,
+           Real spacing);
+  bool any() const { return !emitters_.empty() || !sinks_.empty() || !outlets_.empty(); }
   bool has_sinks() const { return !sinks_.empty(); }
+  bool has_inlets() const { return inlets_ > 0; }
+  bool has_outlets() const { return !outlets_.empty(); }
   const std::vector<Emitter>& emitters() const { return emitters_; }
   const std::vector<Sink>& sinks() const { return sinks_; }
+  const std::vector<Outlet>& outlets() const { return outlets_; }
+  // The fastest any inlet's table runs, m/s (0 without inlets).
+  Real top_inflow_speed() const;
   // Whether p is in any sink.
   bool sunk(const Vec2& p) const;
+  // The full buffers of the inlets not yet filled (new since the last set()
+  // or restore) at time t, appended to x and v (their rows a spacing apart,
+  // the front one half a spacing behind the line); each inlet's travel set
+  // to match. An inlet set() again unchanged keeps its buffer and travel.
+  void fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v);
+  // A particle in an inlet's buffer (after this step's rows, at time t):
+  // its position snapped to the buffer's lattice and its velocity the
+  // inflow's; false (nothing changed) elsewhere.
+  bool hold_in_inlet(Real t, Vec2& x, Vec2& v) const;
+  // Where p is about the outlets: kUpstream within `reach` before a line,
+  // kHeld in its buffer, kPast beyond the buffer's far side (to leave), with
+  // the outlet's lane (lanes a spacing wide across it, numbered over all
+  // outlets; lanes() in all); kNone elsewhere.
+  enum Zone : std::int8_t { kNone, kUpstream, kHeld, kPast };
+  struct Place {
+    Zone zone = kNone;
+    int lane = -1;
+  };
+  Place outlet_place(const Vec2& p, Real reach) const;
+  int lanes() const { return lanes_; }
+  int first_lane(std::size_t outlet) const { return first_lane_[outlet]; }
   // The rows the emitters give over the step (t, t + dt], appended to x and v:
   // each row where it has travelled since it left the nozzle, at the
   // emitter's speed at t + dt.
@@ -61,9 +109,21 @@ class Flows {
   void set_travelled(const std::vector<Real>& travelled);
 
  private:
+  void keep_inlets(const std::vector<Emitter>& emitters, std::vector<Real>& travelled,
+                   std::vector<char>& filled);
+  std::int64_t row_count(const Emitter& e) const;
+  void row(const Emitter& e, Real along, const Vec2& u, std::vector<Vec2>& x,
+           std::vector<Vec2>& v) const;
+  Vec2 inflow(const Emitter& e, Real t) const;
+
   std::vector<Emitter> emitters_;
   std::vector<Sink> sinks_;
+  std::vector<Outlet> outlets_;
   std::vector<Real> travelled_;
+  std::vector<char> filled_;  // per emitter: an inlet whose buffer is in the run
+  std::vector<int> first_lane_;  // per outlet
+  int lanes_ = 0;
+  int inlets_ = 0;
   Vec2 lo_ = Vec2::Zero(), hi_ = Vec2::Zero();  // the sinks' bounding box
   Real dx_ = 0;
 };

@@ -151,12 +151,15 @@ class Solver(metaclass=_Pybind11Type):
         which moves with it), each [[t, value], ...]; motion_of[k] is segment k's
         motion or -1. The walls as they are now are the drawn ones."""
     def set_flows(self, emitters: list[dict[str, Any]], sinks: list[dict[str, Any]],
-                  spacing: float) -> None:
-        """Replace the emitters and sinks; they act from the next step, the emitters'
-        rows on the lattice of `spacing` (m). An emitter is
-        a dict with 'at' [x, y], 'direction' [dx, dy], 'width' (m), 'times' and
-        'speeds' (a table, linear between its times), 'start' and 'stop' (s); a sink
-        one with 'polygon' [[x, y], ...] or 'centre' [x, y] and 'radius'."""
+                  spacing: float, outlets: list[dict[str, Any]] = []) -> None:
+        """Replace the emitters (and inlets), sinks and outlets; they act from the
+        next step, the emitters' rows on the lattice of `spacing` (m); the inlets'
+        buffers are placed now. An emitter is a dict with 'at' [x, y], 'direction'
+        [dx, dy], 'width' (m), 'times' and 'speeds' (a table, linear between its
+        times), 'start' and 'stop' (s), and for an inlet 'buffer' (its depth behind
+        'at', m); a sink one with 'polygon' [[x, y], ...] or 'centre' [x, y] and
+        'radius'; an outlet one with 'at', 'direction' (out of the fluid), 'width'
+        and 'depth' (m)."""
     def snapshot(self) -> dict[str, Any]:
         """Everything the next step depends on: 'fields' (each particle field's numbers
         in storage order), the clock and counts, the guard's budget, 'method' (the

@@ -789,9 +789,10 @@ def _print_summary(run: _Run) -> None:
     print(f"particle-steps/s    {run.particle_steps / max(wall, 1e-9):,.0f}")
     print(f"particles           {sim.n_particles:,}")
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
-    if sim.scene.emitters or sim.scene.sinks:
+    scene = sim.scene
+    if scene.emitters or scene.sinks or scene.inlets or scene.outlets:
         b = sim.balance
-        print(f"particle balance    {b['placed']:,} placed + {b['in']:,} emitted - "
+        print(f"particle balance    {b['placed']:,} placed + {b['in']:,} in - {b['out']:,} out - "
               f"{b['sunk']:,} sunk - {b['lost']:,} lost = {b['now']:,} now")
     print(f"max compression     {run.max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
           "0 if none is above rho0)")

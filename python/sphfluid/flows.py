@@ -1,5 +1,5 @@
-"""Emitters, sinks and moving walls: the scene's ``"emitters"``, ``"sinks"`` and
-a polyline's ``"motion"`` (extensions).
+"""Emitters, inlets, outlets, sinks and moving walls: the scene's ``"emitters"``,
+``"inlets"``, ``"outlets"``, ``"sinks"`` and a polyline's ``"motion"`` (extensions).
 
 An emitter is a nozzle that emits a jet on the lattice of the scene's spacing:
 rows of round(width / spacing) particles across, a new row whenever the last
@@ -8,11 +8,16 @@ has travelled one spacing, at a speed that is a constant or a table of
 is a region (a rectangle, circle or polygon) that removes every particle
 that enters it. The core applies both once a step after the drift, for every
 method (``cpp/boundary/flows.hpp``), and counts what enters and what is sunk
-(``Simulation.balance``). A wall's motion moves it as a rigid body along
+(``Simulation.balance``). An inlet is an emitter whose rows start in a buffer
+behind its line, ``buffer_depth`` deep, where they are held on the lattice at
+the inflow's velocity, so the fluid beyond the line has its full kernel
+support; an outlet is a line beyond which particles keep the velocity they
+crossed with through a buffer as deep, and leave past its far side (counted
+as out). A wall's motion moves it as a rigid body along
 tables of (time, value): its drawn position translated and turned about a
 point; the core meets particles in each moving wall's own frame, so none
 passes through it, and the boundary terms take velocities relative to it.
-docs/scene-format.md, "Emitters and sinks" and "Moving walls".
+docs/scene-format.md, "Emitters and sinks", "Inlets and outlets" and "Moving walls".
 """
 from __future__ import annotations
 
@@ -59,12 +64,18 @@ class Emitter:
         offsets = (np.arange(count) + 0.5 - 0.5 * count) * spacing
         return np.asarray(self.at, float) + offsets[:, None] * across
 
-    def to_core(self, spacing: float) -> dict:
+    def to_core(self, spacing: float, buffer: float = 0.0) -> dict:
+        """As the core takes it; with buffer > 0 (m), an inlet's."""
         times, speeds = self.table()
         return {"at": list(self.at), "direction": list(self.direction),
                 "width": spacing if self.width is None else self.width,
                 "times": times, "speeds": speeds, "start": self.start,
-                "stop": math.inf if self.stop is None else self.stop}
+                "stop": math.inf if self.stop is None else self.stop, "buffer": buffer}
+
+    def zone(self, spacing: float, depth: float) -> np.ndarray:
+        """The corners (4, 2) of the rectangle `depth` m behind the line (an
+        inlet's buffer), around its particles' columns."""
+        return _zone(self.at, -self.unit(), len(self.row(spacing)) * spacing, depth)
 
     def to_dict(self) -> dict:
         out: dict[str, Any] = {"at": list(self.at), "direction": list(self.direction)}
@@ -79,6 +90,47 @@ class Emitter:
         if self.stop is not None:
             out["stop"] = self.stop
         return out
+
+
+@dataclass(frozen=True)
+class Outlet:
+    """A line centred at ``at``, ``width`` m long, across ``direction`` (out of the fluid)."""
+
+    at: tuple  # (x, y), m
+    direction: tuple  # any length; the core normalises it
+    width: float  # m
+    name: str = ""
+
+    def unit(self) -> np.ndarray:
+        d = np.asarray(self.direction, float)
+        return d / np.hypot(*d)
+
+    def zone(self, depth: float) -> np.ndarray:
+        """The corners (4, 2) of its buffer, `depth` m beyond the line."""
+        return _zone(self.at, self.unit(), self.width, depth)
+
+    def to_core(self, depth: float) -> dict:
+        return {"at": list(self.at), "direction": list(self.direction), "width": self.width,
+                "depth": depth}
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {"name": self.name} if self.name else {}
+        return {**out, "at": list(self.at), "direction": list(self.direction),
+                "width": self.width}
+
+
+def _zone(at, unit, width: float, depth: float) -> np.ndarray:
+    across = np.array([-unit[1], unit[0]]) * 0.5 * width
+    at = np.asarray(at, float)
+    far = at + depth * np.asarray(unit)
+    return np.array([at - across, at + across, far + across, far - across])
+
+
+def buffer_depth(spacing: float, h: float) -> float:
+    """The depth of inlets' and outlets' buffers, m: two kernel supports h in
+    whole spacings, so a particle within a support of the line has its own
+    support full (the summation density's need; the fluid's is one support)."""
+    return math.ceil(2.0 * h / spacing - 1e-9) * spacing
 
 
 @dataclass(frozen=True)
@@ -191,15 +243,17 @@ def sink_to_core(region) -> dict:
 
 # --------------------------------------------------------------------------- validation
 
-def read_emitters(v, raw: list, lo, hi, dx: float | None, walls: list) -> list[Emitter]:
-    """The scene's "emitters", which the JSON Schema has checked, read with the
-    scene validator ``v``: what the schema cannot say as problems by JSON path
-    (a zero direction, a speed table out of order, a stop before the start, a
-    nozzle outside the domain or crossed by a wall). lo, hi: the domain's
-    corners and dx the spacing (None after a problem there)."""
+def read_emitters(v, raw: list, lo, hi, dx: float | None, walls: list,
+                  key: str = "emitters", depth: float | None = None) -> list[Emitter]:
+    """The scene's "emitters" (or, with key "inlets" and their buffers' depth,
+    its inlets), which the JSON Schema has checked, read with the scene
+    validator ``v``: what the schema cannot say as problems by JSON path (a
+    zero direction, a speed table out of order, a stop before the start, a
+    nozzle or an inlet's buffer outside the domain or crossed by a wall). lo,
+    hi: the domain's corners and dx the spacing (None after a problem there)."""
     out = []
     for i, item in enumerate(raw):
-        path = f"emitters[{i}]"
+        path = f"{key}[{i}]"
         if not (isinstance(item, dict) and v.ok(path)):
             continue
         n_before = len(v.problems)
@@ -217,7 +271,9 @@ def read_emitters(v, raw: list, lo, hi, dx: float | None, walls: list) -> list[E
             continue
         e = Emitter(at=at, direction=direction, width=width, speed=speed, start=start,
                     stop=stop, name=str(item.get("name", "")))
-        if dx:
+        if dx and depth:
+            _check_zone(v, e.zone(dx, depth), path, "its buffer", lo, hi, walls)
+        elif dx:
             _check_nozzle(v, e, path, lo, hi, dx, walls)
         out.append(e)
     return out
@@ -236,22 +292,91 @@ def _speed(v, raw, path: str) -> float | tuple | None:
     return pairs
 
 
+def read_outlets(v, raw: list, lo, hi, depth: float | None, walls: list) -> list[Outlet]:
+    """The scene's "outlets" (the schema has checked their shape): a zero
+    direction, a buffer outside the domain or crossed by a wall, by JSON path."""
+    out = []
+    for i, item in enumerate(raw):
+        path = f"outlets[{i}]"
+        if not (isinstance(item, dict) and v.ok(path)):
+            continue
+        at = v.point(item, "at", path)
+        direction = v.point(item, "direction", path)
+        width = v.number(item, "width", f"{path}.")
+        if not (at and direction and width):
+            continue
+        if not (math.isfinite(math.hypot(*direction)) and math.hypot(*direction) > 0):
+            v.fail(f"{path}.direction", "must not be [0, 0]")
+            continue
+        o = Outlet(at, direction, width, str(item.get("name", "")))
+        if depth:
+            _check_zone(v, o.zone(depth), path, "its buffer", lo, hi, walls)
+        out.append(o)
+    return out
+
+
+def _check_zone(v, corners: np.ndarray, path: str, what: str, lo, hi, walls: list) -> None:
+    """A buffer's rectangle inside the domain, no wall crossing its inside (walls
+    along its sides are what a channel has)."""
+    if lo and hi and not ((corners >= np.asarray(lo) - 1e-12).all()
+                          and (corners <= np.asarray(hi) + 1e-12).all()):
+        v.fail(path, f"{what} ({np.round(corners, 6).tolist()}) reaches outside the domain: "
+               "its particles would be removed")
+        return
+    shrink = corners.mean(axis=0) + 0.999 * (corners - corners.mean(axis=0))
+    for k, (p, q) in enumerate(walls):
+        ends = np.array([p, q], float)
+        if _in_rectangle(shrink, ends, 0.0) or any(
+                _segments_cross(shrink[j], shrink[(j + 1) % 4], ends[0], ends[1])
+                for j in range(4)):
+            v.fail(path, f"a wall (segment {k}) crosses {what}: keep walls outside it or "
+                   "along its sides")
+            return
+
+
+def check_buffers(v, inlets: list, outlets: list, dx: float, depth: float,
+                  initial: np.ndarray | None) -> None:
+    """No initial fluid in an inlet's or an outlet's buffer (an inlet facing out of
+    the fluid, or an outlet inside it)."""
+    if initial is None or not len(initial):
+        return
+    zones = [(f"inlets[{i}]", e.zone(dx, depth), "faces out of the fluid: its buffer, behind "
+              "the line, holds") for i, e in enumerate(inlets)]
+    zones += [(f"outlets[{i}]", o.zone(depth), "lies inside the fluid: its buffer holds")
+              for i, o in enumerate(outlets)]
+    for path, corners, what in zones:
+        inside = _in_rectangle(corners, initial, 0.25 * dx)
+        if inside:
+            v.fail(path, f"{what} {inside} particle(s) of the initial fluid; its direction "
+                   "points into the domain's fluid for an inlet, out of it for an outlet")
+
+
+def _in_rectangle(corners: np.ndarray, points: np.ndarray, margin: float) -> int:
+    """How many points lie inside the rectangle by more than margin."""
+    origin, e1, e2 = corners[0], corners[1] - corners[0], corners[3] - corners[0]
+    rel = points - origin
+    s = rel @ e1 / (e1 @ e1)
+    t = rel @ e2 / (e2 @ e2)
+    m1, m2 = margin / np.sqrt(e1 @ e1), margin / np.sqrt(e2 @ e2)
+    return int(((s > m1) & (s < 1 - m1) & (t > m2) & (t < 1 - m2)).sum())
+
+
 def check_emitter_steps(v, emitters: list, dt: float | None, dx: float | None,
-                        sound: float | None) -> None:
+                        sound: float | None, key: str = "emitters") -> None:
     """Each jet slower than the fluid's speed of sound (when the scene gives one:
     the seed's sqrt(gas_constant), wcsph's fluid.speed_of_sound; by default wcsph
     takes 10 times the jets' speed), and with a fixed time step advancing at most
     a spacing a step (a row a step; the adaptive step follows the jet)."""
     for i, e in enumerate(emitters):
         if sound and e.top_speed() >= sound:
-            v.fail(f"emitters[{i}].speed", f"{e.top_speed():g} m/s is not below the fluid's "
+            v.fail(f"{key}[{i}].speed", f"{e.top_speed():g} m/s is not below the fluid's "
                    f"speed of sound, {sound:g} m/s: a weakly compressible fluid needs its "
                    "jets well below it (raise fluid.speed_of_sound or the gas constant)")
     if dt is None or not dx:
         return
     for i, e in enumerate(emitters):
         if e.top_speed() * dt > dx:
-            v.fail(f"emitters[{i}].speed", f"{e.top_speed():g} m/s at the fixed time step "
+            v.fail(f"{key}[{i}].speed", f"{e.top_speed():g} m/s at the fixed time step "
                    f"{dt:g} s moves the jet {e.top_speed() * dt / dx:.3g} spacings a step: "
                    f"at most one (a time step of at most {dx / e.top_speed():.3g} s, or "
                    '"time_step": "auto")')

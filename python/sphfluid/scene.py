@@ -187,6 +187,8 @@ class Scene:
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
     emitters: tuple = ()  # of flows.Emitter: nozzles emitting jets (extension)
     sinks: tuple = ()  # of Region: regions removing the particles entering them (extension)
+    inlets: tuple = ()  # of flows.Emitter: lines fed from a held buffer (extension)
+    outlets: tuple = ()  # of flows.Outlet: lines letting fluid out through a buffer (extension)
     source: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -279,7 +281,17 @@ class Scene:
             out["emitters"] = [e.to_dict() for e in self.emitters]
         if self.sinks:
             out["sinks"] = [r.to_dict() for r in self.sinks]
+        if self.inlets:
+            out["inlets"] = [e.to_dict() for e in self.inlets]
+        if self.outlets:
+            out["outlets"] = [o.to_dict() for o in self.outlets]
         return out
+
+    def buffer_depth(self) -> float:
+        """The depth of the inlets' and outlets' buffers, m (flows.buffer_depth)."""
+        from .flows import buffer_depth
+
+        return buffer_depth(self.spacing, self.smoothing_length)
 
 
 # --------------------------------------------------------------------------- loading
@@ -422,7 +434,7 @@ class _Validator:
 
             n_segments = None if any(p.startswith("walls") for p in self.refused) else len(walls)
             probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
-        emitters, sinks = self.flows(d, domain, res, walls, solver, fluid)
+        emitters, sinks, inlets, outlets = self.flows(d, domain, res, walls, solver, fluid)
 
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
@@ -450,13 +462,15 @@ class _Validator:
                       density=solver.density, density_diffusion=solver.density_diffusion,
                       shifting=solver.shifting, free_surface=solver.free_surface,
                       probes=probes, emitters=tuple(emitters),
-                      sinks=tuple(sinks), source=self.source)
+                      sinks=tuple(sinks), inlets=tuple(inlets), outlets=tuple(outlets),
+                      source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
-        if sinks:
-            from .flows import check_sinks
+        if sinks or inlets or outlets:
+            from .flows import check_buffers, check_sinks
 
-            check_sinks(self, sinks, domain.lo, domain.hi,
-                        None if self.problems else scene.lattice_points()[0])
+            initial = None if self.problems else scene.lattice_points()[0]
+            check_sinks(self, sinks, domain.lo, domain.hi, initial)
+            check_buffers(self, inlets, outlets, res.dx, scene.buffer_depth(), initial)
         self.raise_problems()
         return scene
 
@@ -501,19 +515,23 @@ class _Validator:
             free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE))
 
     def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list,
-              solver: _Solver, fluid: _Fluid) -> tuple[list, list[Region]]:
-        """The emitters and sinks (extensions; flows.py)."""
-        if "emitters" not in d and "sinks" not in d:
-            return [], []
-        from .flows import check_emitter_steps, read_emitters
+              solver: _Solver, fluid: _Fluid) -> tuple[list, list[Region], list, list]:
+        """The emitters, sinks, inlets and outlets (extensions; flows.py)."""
+        if not {"emitters", "sinks", "inlets", "outlets"} & set(d):
+            return [], [], [], []
+        from .flows import buffer_depth, check_emitter_steps, read_emitters, read_outlets
 
-        emitters = read_emitters(self, self.items(d, "emitters"), domain.lo, domain.hi, res.dx,
-                                 walls)
+        depth = buffer_depth(res.dx, res.h) if res.dx and res.h else None
         sound = (math.sqrt(fluid.k) if solver.method == "seed" and fluid.k else fluid.c0)
-        check_emitter_steps(self, emitters, solver.dt, res.dx, sound)
+        jets = {}
+        for key in ("emitters", "inlets"):
+            jets[key] = read_emitters(self, self.items(d, key), domain.lo, domain.hi, res.dx,
+                                      walls, key, depth if key == "inlets" else None)
+            check_emitter_steps(self, jets[key], solver.dt, res.dx, sound, key)
         sinks = [r for i, item in enumerate(self.items(d, "sinks"))
                  if (r := self.region(item, f"sinks[{i}]")) is not None]
-        return emitters, sinks
+        outlets = read_outlets(self, self.items(d, "outlets"), domain.lo, domain.hi, depth, walls)
+        return jets["emitters"], sinks, jets["inlets"], outlets
 
     def fluid(self, fl: dict) -> _Fluid:
         p = "fluid."

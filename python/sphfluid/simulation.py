@@ -37,7 +37,7 @@ def expected_top_speed(scene: Scene) -> float:
                   for c in r.bounds())
         speeds.append(math.sqrt(2 * g * max(top - bottom, 0.0)))
     speeds += [math.hypot(*r.velocity) for r in scene.regions]
-    for e in scene.emitters:
+    for e in (*scene.emitters, *scene.inlets):
         fall = max(float(np.dot(np.asarray(e.at), up)) - bottom, 0.0)
         speeds.append(math.sqrt(e.top_speed() ** 2 + 2 * g * fall))
     if scene.surface_tension > 0:
@@ -204,7 +204,7 @@ class Simulation:
             self._solver.set_wall_velocities(np.asarray(self.scene.wall_velocities, float))
         if self.scene.wall_motions:  # moving walls (flows.WallMotion)
             self._set_wall_motions()
-        if self.scene.emitters or self.scene.sinks:
+        if self.scene.emitters or self.scene.sinks or self.scene.inlets or self.scene.outlets:
             self._set_flows()
 
     def _set_wall_motions(self) -> None:
@@ -214,9 +214,11 @@ class Simulation:
         self._solver.set_wall_motions([m.to_core() for m in index], motion_of)
 
     def _set_flows(self) -> None:
-        dx = self.scene.spacing
-        self._solver.set_flows([e.to_core(dx) for e in self.scene.emitters],
-                               [sink_to_core(r) for r in self.scene.sinks], dx)
+        dx, depth = self.scene.spacing, self.scene.buffer_depth()
+        self._solver.set_flows([e.to_core(dx) for e in self.scene.emitters]
+                               + [e.to_core(dx, depth) for e in self.scene.inlets],
+                               [sink_to_core(r) for r in self.scene.sinks], dx,
+                               [o.to_core(depth) for o in self.scene.outlets])
 
     # -- stepping
     @property
@@ -399,11 +401,11 @@ class Simulation:
     def balance(self) -> dict:
         """The particle count's balance: 'placed' (the scene's fluid, and what
         ``set_state`` and ``add_particles`` placed, less what they replaced), 'in'
-        (emitted), 'out' (outlets; 0), 'sunk', 'lost' (left the domain) and 'now';
+        (emitters and inlets), 'out' (outlets), 'sunk', 'lost' (left the domain) and 'now';
         placed + in - out - sunk - lost = now, exactly. Times ``particle_mass``, the
         mass balance."""
         b = dict(self._solver.balance)
-        return {"placed": b["placed"], "in": b["in"], "out": 0, "sunk": b["sunk"],
+        return {"placed": b["placed"], "in": b["in"], "out": b["out"], "sunk": b["sunk"],
                 "lost": b["lost"], "now": self.n_particles}
 
     @_one_thread

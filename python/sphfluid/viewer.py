@@ -166,23 +166,19 @@ class Renderer:
             self.draw_colour_bar(surface)
 
     def draw_flows(self, surface) -> None:
-        """The sinks, outlined, and the emitters: each nozzle's row as a bar with an
-        arrow along the jet, bright while it emits, dim before its start and after
-        its stop."""
+        """The sinks and the outlets' and inlets' buffers, outlined, and the emitters
+        and inlets: each nozzle's row as a bar with an arrow along the jet, bright
+        while it emits, dim before its start and after its stop."""
         pg, cam, scene = self.pygame, self.camera, self.sim.scene
-        for r in scene.sinks:
-            if r.shape == "circle":
-                (cx, cy), = r.points
-                ring = np.array([[cx + r.radius * np.cos(a), cy + r.radius * np.sin(a)]
-                                 for a in np.linspace(0, 2 * np.pi, 48, endpoint=False)])
-            elif r.shape == "rectangle":
-                (x0, y0), (x1, y1) = r.points
-                ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-            else:
-                ring = np.asarray(r.points, float)
+        for ring in self.sink_rings():
             pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 2)
         t, dx = self.sim.time, scene.spacing
-        for e in scene.emitters:
+        if scene.inlets or scene.outlets:
+            depth = scene.buffer_depth()
+            zones = [e.zone(dx, depth) for e in scene.inlets]
+            for ring in zones + [o.zone(depth) for o in scene.outlets]:
+                pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 1)
+        for e in (*scene.emitters, *scene.inlets):
             on = e.start <= t and (e.stop is None or t < e.stop)
             colour = EMITTER if on else tuple(c // 2 for c in EMITTER)
             row = e.row(dx)
@@ -195,6 +191,21 @@ class Renderer:
             arrow = np.array([e.at, tip, tip - dx * d + across * 2, tip, tip - dx * d - across * 2])
             ax, ay = cam.to_screen(arrow)
             pg.draw.lines(surface, colour, False, list(zip(ax, ay)), 2)
+
+    def sink_rings(self) -> list:
+        """The scene's sinks as closed outlines (k, 2) in world coordinates."""
+        rings = []
+        for r in self.sim.scene.sinks:
+            if r.shape == "circle":
+                (cx, cy), = r.points
+                rings.append(np.array([[cx + r.radius * np.cos(a), cy + r.radius * np.sin(a)]
+                                       for a in np.linspace(0, 2 * np.pi, 48, endpoint=False)]))
+            elif r.shape == "rectangle":
+                (x0, y0), (x1, y1) = r.points
+                rings.append(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+            else:
+                rings.append(np.asarray(r.points, float))
+        return rings
 
     def draw_probes(self, surface) -> None:
         """The scene's probes, named: a ring at each point, a dashed vertical line

@@ -168,6 +168,10 @@ void SeedMethod::finish_eos(Index i0, Index i1) {
         pf[i] = static_cast<float>(pi * inv_rho0);
         ir[i] = static_cast<float>(rho0 * ri);
       }
+      // An outlet's buffer holds the reference pressure (Context::outlet_held).
+      if (const std::int8_t* held = ctx_.outlet_held())
+        for (Index i = i0; i < i1; ++i)
+          if (held[i]) p[i] = pf[i] = 0;
       return;
     }
   }
@@ -175,6 +179,10 @@ void SeedMethod::finish_eos(Index i0, Index i1) {
     p[i] = seed::pressure(k, rho[i], rho0);
     inv_rho[i] = 1 / rho[i];
   }
+  // An outlet's buffer holds the reference pressure (Context::outlet_held).
+  if (const std::int8_t* held = ctx_.outlet_held())
+    for (Index i = i0; i < i1; ++i)
+      if (held[i]) p[i] = 0;
 }
 
 // Pressure (eq. 14), viscosity (17) and colour-field surface tension (18-20);

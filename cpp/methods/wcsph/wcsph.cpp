@@ -125,6 +125,13 @@ void WcsphMethod::state() {
     inv_rho[i] = ir;
     por2[i] = p_i * ir * ir;
   }
+  // An outlet's buffer holds the reference pressure (Context::outlet_held).
+  if (const std::int8_t* held = ctx_.outlet_held())
+    for (Index i = 0; i < n; ++i)
+      if (held[i]) {
+        p[i] = wcsph::pressure(rho0, rho0, B, pb);
+        por2[i] = p[i] * inv_rho[i] * inv_rho[i];
+      }
   ctx_.timer.mark(kDensity);
 }
 

@@ -812,7 +812,83 @@ class WaveMaker(Case):
         result.curves = {"t": t, "eta": eta, "theory": theory}
 
 
+# --- 11. channel with an inlet and an outlet -----------------------------------------
+
+
+class Channel(Case):
+    """A plane channel H = 0.1 m high and 0.6 m long between no-slip walls, fed
+    by a uniform inlet at U = 0.1 m/s at its left and emptied by an outlet at its
+    right (no periodic axis), the fluid at rest on the lattice at the start, no
+    gravity, nu = 1e-3 m^2/s (Re = U H / nu = 10; the entrance length is about
+    0.9 H). Downstream the flow takes Poiseuille's profile with the inflow's
+    flux, u = 1.5 U (1 - (2y/H - 1)^2). Error: the largest |u_row - u| / (1.5 U)
+    over the rows of the profile averaged over 0.3-0.4 m from the inlet and over
+    t = 6-8 s (the slowest viscous mode then decays below 0.3 %)."""
+
+    name = "channel"
+    title = "Channel with an inlet and an outlet"
+    error_name = "max |du| / u_max over rows, x 0.3-0.4 m, t 6-8 s"
+    length = 0.1  # H: n cells across the channel
+    channel, speed, nu, rho0 = 0.6, 0.1, 1e-3, 1000.0
+    # The viscous pressure drop, 12 rho nu U L / H^2 = 72 Pa, would compress the
+    # fluid 7 % at the default speed of sound (10 U); at 3 m/s (20 x the top
+    # speed) 0.8 %.
+    c0 = 3.0
+    window, slab = (6.0, 8.0), (0.3, 0.4)
+    resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 20), "full": (10, 20, 40)}
+
+    def scene(self, n, method):
+        # the buffers' depth at the method's default support (Scene.buffer_depth)
+        return self._scene(n, method, load_scene(self._scene(n, method, 0.0)).buffer_depth())
+
+    def _scene(self, n, method, depth):
+        H, L, dx = self.length, self.channel, self.spacing(n)
+        fluid = _fluid(method, rho0=self.rho0, c0=self.c0, viscosity=self.nu * self.rho0)
+        d = _scene("validation: channel with an inlet and an outlet", method=method, dx=dx,
+                   box=((0.0, 0.0), (L + 2 * depth, H)), fluid=fluid,
+                   regions=[_rect(depth, 0.0, depth + L, H)],
+                   walls=[{"polyline": [[0.0, 0.0], [L + 2 * depth, 0.0]]},
+                          {"polyline": [[0.0, H], [L + 2 * depth, H]]}],
+                   gravity=(0.0, 0.0), duration=self.window[1])
+        if depth:
+            d["inlets"] = [{"at": [depth, H / 2], "direction": [1, 0], "width": H,
+                            "speed": self.speed}]
+            d["outlets"] = [{"at": [depth + L, H / 2], "direction": [1, 0], "width": H}]
+        return d
+
+    def sample_times(self):
+        return np.linspace(0.5, self.window[1], 16)
+
+    def sample(self, sim):
+        depth = sim.scene.buffer_depth()
+        x, v = sim.positions, sim.velocities
+        inside = (x[:, 0] >= depth + self.slab[0]) & (x[:, 0] < depth + self.slab[1])
+        b = sim.balance
+        return {"t": sim.time, "y": x[inside, 1].copy(), "u": v[inside, 0].copy(),
+                "in": b["in"], "out": b["out"], "lost": b["lost"], "now": b["now"]}
+
+    def score(self, samples, times, result):
+        H, dx, U = self.length, result.spacing, self.speed
+        rows = round(H / dx)
+        late = [s for s in samples if s["t"] >= self.window[0] - 1e-9]
+        y = np.concatenate([s["y"] for s in late])
+        u = np.concatenate([s["u"] for s in late])
+        row = np.clip((y / dx).astype(int), 0, rows - 1)
+        count = np.bincount(row, minlength=rows)
+        ym = np.bincount(row, y, rows) / np.maximum(count, 1)
+        um = np.bincount(row, u, rows) / np.maximum(count, 1)
+        exact = ref.channel_velocity(ym, H, U)
+        result.error = float(np.abs(um - exact)[count > 0].max() / (1.5 * U))
+        first, last = late[0], late[-1]
+        rate = (last["out"] - first["out"]) / (last["t"] - first["t"])
+        inflow = U * H / dx**2  # particles a second
+        result.metrics = {"mean u / U over the slab": float(u.mean() / U),
+                          "outflow / inflow, t 6-8 s": float(rate / inflow),
+                          "lost (left the domain)": last["lost"]}
+        result.curves = {"y": ym, "u": um, "u_ref": exact}
+
+
 CASES: dict[str, Case] = {c.name: c for c in (Hydrostatic(), DamBreak(), WallPressure(),
                                                Poiseuille(),
                                                TaylorGreen(), Droplet(), Oscillation(),
-                                               Cavity(), Basin(), WaveMaker())}
+                                               Cavity(), Basin(), WaveMaker(), Channel())}

@@ -667,3 +667,10 @@ def ghia_cavity(series: str) -> tuple[FloatArray, FloatArray]:
     (coordinate, velocity) : tuple of arrays, in increasing coordinate
     """
     return _series_xy(_GHIA_FILE, series, _GHIA_SERIES, "coordinate", "velocity")
+
+
+def channel_velocity(y, gap: float, mean: float):
+    """Plane Poiseuille flow between walls at y = 0 and y = gap carrying the mean
+    velocity `mean`: u = 1.5 mean (1 - (2y/gap - 1)^2)."""
+    eta = 2 * np.asarray(y, float) / gap - 1
+    return 1.5 * mean * (1 - eta**2)

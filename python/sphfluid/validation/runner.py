@@ -74,6 +74,10 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("basin", "wcsph", 15): 2.4,  # 1.673 (W26: the spray lands loose)
     ("basin", "wcsph", 20): 3.4,  # 2.363
     ("basin", "wcsph", 30): 2.9,  # 2.065
+    ("channel", "seed", 10): 0.30,  # 0.193 (seed-float 0.215)
+    ("channel", "seed", 20): 0.21,  # 0.138 (seed-float 0.144)
+    ("channel", "wcsph", 10): 0.047,  # 0.0333
+    ("channel", "wcsph", 20): 0.04,  # 0.0285
     ("wave_maker", "wcsph", 10): 0.36,  # 0.2564
     ("wave_maker", "wcsph", 15): 0.27,  # 0.1874
     # the seed's viscous fluid damps the waves to a fifth (0.81-0.83, 0.68-0.75 with
@@ -338,6 +342,15 @@ def _profile(name: str, results: list[Result], ax) -> None:
                     label=f"{m}, n={r.n}")
         ax.set_xlabel("t, s (the tap stops at 1.5 s)")
         ax.set_ylabel("water level, m")
+    elif name == "channel":
+        y = np.linspace(0.0, case.length, 100)
+        ax.plot(ref.channel_velocity(y, case.length, case.speed) / case.speed, y, "k-", lw=0.8,
+                label="Poiseuille, the inflow's flux")
+        for i, (m, r) in enumerate(best.items()):
+            ax.plot(r.curves["u"] / case.speed, r.curves["y"], "ox"[i % 2], ms=4,
+                    color=COLOURS[m], label=f"{m}, n={r.n}")
+        ax.set_xlabel("u / U (rows' means, 0.3-0.4 m from the inlet, t 6-8 s)")
+        ax.set_ylabel("y, m")
     who = "ours" if any(r.peer for r in results) else "simulated"  # the peers' are not drawn
     ax.set_title(f"{who} against the reference (finest completed run)", fontsize=10)
     ax.grid(True, alpha=0.3)
