@@ -188,9 +188,13 @@ void Context::flows_set() {
   new_v_.clear();
   flows.fill_inlets(time_, new_x_, new_v_);
   if (!new_x_.empty()) append(size());
+  new_x_.clear();
+  flows.fill_outlets(new_x_);
+  new_v_.assign(new_x_.size(), Vec2::Zero());
+  if (!new_x_.empty()) append(size(), false);
 }
 
-void Context::append(Index n) {
+void Context::append(Index n, bool entered) {
   const Index k = static_cast<Index>(new_x_.size());
   if (std::int64_t(n) + k >= INT32_MAX)
     throw std::length_error("the emitters would pass the core's particle limit (2^31 - 1)");
@@ -207,7 +211,7 @@ void Context::append(Index n) {
   // The new particles' energy enters the guard's budget once they are
   // evaluated, at the next integration (budget_stale).
   budget_stale = true;
-  balance.entered += k;
+  (entered ? balance.entered : balance.placed) += k;
   if (on_added) on_added(n);
 }
 
@@ -217,7 +221,7 @@ void Context::append(Index n) {
 // into a wall beside the buffer): the step's accelerations are taken back
 // from their velocity and path. A lane whose fluid flows back (or that has
 // none) leaves its particles free. Past the buffer they leave (counted as
-// out). The lanes' sums run in index order, as many threads as there are.
+// out). The lanes' sums run in index order, the same for any thread count.
 void Context::hold_outlets() {
   const Index n = size();
   Vec2* x = ps.x.data();
@@ -233,22 +237,7 @@ void Context::hold_outlets() {
     place[i] = flows.outlet_place(x[i], reach);
     leaving |= place[i].zone == Flows::kPast;
   }
-  lane_sum_.assign(flows.lanes(), 0);
-  lane_count_.assign(flows.lanes(), 0);
-  const auto lane_outlet = [&](int lane) -> const Outlet& {
-    std::size_t k = 0;
-    while (k + 1 < flows.outlets().size() && lane >= flows.first_lane(k + 1)) ++k;
-    return flows.outlets()[k];
-  };
-  for (Index i = 0; i < n; ++i)
-    if (place[i].zone == Flows::kUpstream && !held[i]) {
-      lane_sum_[place[i].lane] += v[i].dot(lane_outlet(place[i].lane).direction);
-      ++lane_count_[place[i].lane];
-    }
-  std::vector<Vec2> lane_v(flows.lanes(), Vec2::Zero());
-  for (int l = 0; l < flows.lanes(); ++l)
-    if (lane_count_[l] > 0 && lane_sum_[l] > 0)
-      lane_v[l] = lane_sum_[l] / Real(lane_count_[l]) * lane_outlet(l).direction;
+  const std::vector<Vec2>& lane_v = lane_velocities(place, held);
   // The carried density (continuity) held at rho0: the outlet's pressure is
   // the reference pressure (a summed density's is set by the method).
   const bool pressure = params_.continuity;
@@ -267,6 +256,32 @@ void Context::hold_outlets() {
     balance.out += remove_where(0, [&](const Vec2& p) {
       return flows.outlet_place(p, reach).zone == Flows::kPast;
     });
+}
+
+// Each outlet lane's velocity: straight out at the mean speed across the line
+// of the fluid before it (`place`: each particle's), zero where that flows
+// back or is missing; summed in index order.
+const std::vector<Vec2>& Context::lane_velocities(const Flows::Place* place,
+                                                  const std::int8_t* held) {
+  const Index n = size();
+  const Vec2* v = ps.v.data();
+  std::vector<int> outlet_of(flows.lanes());
+  for (std::size_t k = 0; k < flows.outlets().size(); ++k)
+    for (int l = flows.first_lane(k); l < flows.first_lane(k + 1); ++l)
+      outlet_of[l] = static_cast<int>(k);
+  lane_sum_.assign(flows.lanes(), 0);
+  lane_count_.assign(flows.lanes(), 0);
+  for (Index i = 0; i < n; ++i)
+    if (place[i].zone == Flows::kUpstream && !held[i]) {
+      const int l = place[i].lane;
+      lane_sum_[l] += v[i].dot(flows.outlets()[outlet_of[l]].direction);
+      ++lane_count_[l];
+    }
+  lane_v_.assign(flows.lanes(), Vec2::Zero());
+  for (int l = 0; l < flows.lanes(); ++l)
+    if (lane_count_[l] > 0 && lane_sum_[l] > 0)
+      lane_v_[l] = lane_sum_[l] / Real(lane_count_[l]) * flows.outlets()[outlet_of[l]].direction;
+  return lane_v_;
 }
 
 // The inlets' buffers on their lattice, at the inflow velocity of the step's end.

@@ -131,7 +131,8 @@ class Context {
   // density is held at rho0 there); null without outlets.
   const std::int8_t* outlet_held() const { return held_ ? held_->data() : nullptr; }
   // The flows changed: the outlets' per-particle fields made (or dropped),
-  // and the inlets' buffers added at time() (counted as entered).
+  // the inlets' buffers added at time() (counted as entered) and the
+  // outlets' (fluid at rest, counted as placed).
   void flows_set();
   // Called with the first index of particles just appended (the method gives
   // them its initial values; set by the Solver).
@@ -213,10 +214,13 @@ class Context {
   std::vector<Flows::Place> places_;  // scratch for the outlets
   std::vector<Real> lane_sum_;
   std::vector<Index> lane_count_;
+  std::vector<Vec2> lane_v_;
+  const std::vector<Vec2>& lane_velocities(const Flows::Place* place, const std::int8_t* held);
   // The outlets hold their buffers' velocities and let out what passed them.
   void hold_outlets();
   void hold_inlets();
-  void append(Index first_new);  // new_x_, new_v_ as particles
+  // new_x_, new_v_ as particles from first_new on, counted as entered or placed
+  void append(Index first_new, bool entered = true);
   // Remove the particles for which out(x, v) holds; returns how many.
   template <class Out>
   Index remove_where(Index first_out, Out out);

@@ -99,6 +99,20 @@ void Flows::keep_inlets(const std::vector<Emitter>& emitters, std::vector<Real>&
   }
 }
 
+// Likewise an outlet set again as it was keeps its buffer.
+void Flows::keep_outlets(const std::vector<Outlet>& outlets, std::vector<char>& filled) {
+  for (std::size_t k = 0; k < outlets.size(); ++k)
+    for (std::size_t j = 0; j < outlets_.size(); ++j) {
+      const Outlet &o = outlets[k], &old = outlets_[j];
+      if (outlet_filled_[j] && old.at == o.at && old.direction == o.direction &&
+          old.width == o.width && old.depth == o.depth) {
+        filled[k] = 1;
+        outlet_filled_[j] = 0;  // each old buffer serves one new outlet
+        break;
+      }
+    }
+}
+
 void Flows::set(std::vector<Emitter> emitters, std::vector<Sink> sinks,
                 std::vector<Outlet> outlets, Real spacing) {
   check(std::isfinite(spacing) && spacing > 0, "flows: the spacing must be > 0");
@@ -118,16 +132,20 @@ void Flows::set(std::vector<Emitter> emitters, std::vector<Sink> sinks,
   std::vector<Real> travelled(emitters.size(), spacing);
   std::vector<char> filled(emitters.size(), 0);
   if (spacing == dx_) keep_inlets(emitters, travelled, filled);
+  std::vector<char> outlet_filled(outlets.size(), 0);
+  if (spacing == dx_) keep_outlets(outlets, outlet_filled);
   emitters_ = std::move(emitters);
   sinks_ = std::move(sinks);
   outlets_ = std::move(outlets);
   first_lane_.assign(1, 0);
-  for (const Outlet& o : outlets_)
-    first_lane_.push_back(first_lane_.back() +
-                          static_cast<int>(std::max<std::int64_t>(1, std::llround(o.width / spacing))));
+  for (const Outlet& o : outlets_) {
+    const auto lanes = std::max<std::int64_t>(1, std::llround(o.width / spacing));
+    first_lane_.push_back(first_lane_.back() + static_cast<int>(lanes));
+  }
   lanes_ = first_lane_.back();
   travelled_ = std::move(travelled);
   filled_ = std::move(filled);
+  outlet_filled_ = std::move(outlet_filled);
   lo_ = lo;
   hi_ = hi;
   dx_ = spacing;
@@ -194,6 +212,21 @@ void Flows::fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v) {
   }
 }
 
+void Flows::fill_outlets(std::vector<Vec2>& x) {
+  for (std::size_t k = 0; k < outlets_.size(); ++k) {
+    if (outlet_filled_[k]) continue;
+    outlet_filled_[k] = 1;
+    const Outlet& o = outlets_[k];
+    const Vec2 across(-o.direction.y(), o.direction.x());
+    const auto rows = std::max<std::int64_t>(1, std::llround(o.depth / dx_));
+    const auto count = std::max<std::int64_t>(1, std::llround(o.width / dx_));
+    for (std::int64_t r = 0; r < rows; ++r)
+      for (std::int64_t j = 0; j < count; ++j)
+        x.push_back(o.at + (Real(r) + Real(0.5)) * dx_ * o.direction +
+                    (Real(j) + Real(0.5) - Real(0.5) * Real(count)) * dx_ * across);
+  }
+}
+
 bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
   for (std::size_t k = 0; k < emitters_.size(); ++k) {
     const Emitter& e = emitters_[k];
@@ -235,7 +268,8 @@ Flows::Place Flows::outlet_place(const Vec2& p, Real reach) const {
     const Real off = rel.x() * -o.direction.y() + rel.y() * o.direction.x();
     if (!(std::abs(off) <= Real(0.5) * o.width)) continue;
     const int lanes = first_lane_[k + 1] - first_lane_[k];
-    const int lane = std::clamp(static_cast<int>((off / o.width + Real(0.5)) * lanes), 0, lanes - 1);
+    const int lane =
+        std::clamp(static_cast<int>((off / o.width + Real(0.5)) * lanes), 0, lanes - 1);
     return {along < 0 ? kUpstream : along < o.depth ? kHeld : kPast, first_lane_[k] + lane};
   }
   return {};
@@ -248,6 +282,7 @@ void Flows::set_travelled(const std::vector<Real>& travelled) {
   for (Real s : travelled) check(std::isfinite(s) && s >= 0, "checkpoint: an emitter's travel");
   travelled_ = travelled;
   filled_.assign(emitters_.size(), 1);  // the checkpoint holds the buffers
+  outlet_filled_.assign(outlets_.size(), 1);
 }
 
 }  // namespace sphfluid

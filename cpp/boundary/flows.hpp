@@ -79,10 +79,14 @@ class Flows {
   // Whether p is in any sink.
   bool sunk(const Vec2& p) const;
   // The full buffers of the inlets not yet filled (new since the last set()
-  // or restore) at time t, appended to x and v (their rows a spacing apart,
-  // the front one half a spacing behind the line); each inlet's travel set
-  // to match. An inlet set() again unchanged keeps its buffer and travel.
+  // or restore: one set() again unchanged keeps its buffer and travel) at
+  // time t, appended to x and v (their rows a spacing apart, the front one
+  // half a spacing behind the line); each inlet's travel set to match.
   void fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v);
+  // The buffers of the outlets not yet filled (likewise), full of fluid at
+  // rest on the lattice (rows a spacing apart from half a spacing past the
+  // line: the fluid runs on past it at the start); appended to x.
+  void fill_outlets(std::vector<Vec2>& x);
   // A particle in an inlet's buffer (after this step's rows, at time t):
   // its position snapped to the buffer's lattice and its velocity the
   // inflow's; false (nothing changed) elsewhere.
@@ -111,6 +115,7 @@ class Flows {
  private:
   void keep_inlets(const std::vector<Emitter>& emitters, std::vector<Real>& travelled,
                    std::vector<char>& filled);
+  void keep_outlets(const std::vector<Outlet>& outlets, std::vector<char>& filled);
   std::int64_t row_count(const Emitter& e) const;
   void row(const Emitter& e, Real along, const Vec2& u, std::vector<Vec2>& x,
            std::vector<Vec2>& v) const;
@@ -121,6 +126,7 @@ class Flows {
   std::vector<Outlet> outlets_;
   std::vector<Real> travelled_;
   std::vector<char> filled_;  // per emitter: an inlet whose buffer is in the run
+  std::vector<char> outlet_filled_;  // per outlet: likewise
   std::vector<int> first_lane_;  // per outlet
   int lanes_ = 0;
   int inlets_ = 0;

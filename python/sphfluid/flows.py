@@ -272,7 +272,7 @@ def read_emitters(v, raw: list, lo, hi, dx: float | None, walls: list,
         e = Emitter(at=at, direction=direction, width=width, speed=speed, start=start,
                     stop=stop, name=str(item.get("name", "")))
         if dx and depth:
-            _check_zone(v, e.zone(dx, depth), path, "its buffer", lo, hi, walls)
+            _check_zone(v, e.zone(dx, depth), path, _buffer(depth), lo, hi, walls)
         elif dx:
             _check_nozzle(v, e, path, lo, hi, dx, walls)
         out.append(e)
@@ -310,9 +310,13 @@ def read_outlets(v, raw: list, lo, hi, depth: float | None, walls: list) -> list
             continue
         o = Outlet(at, direction, width, str(item.get("name", "")))
         if depth:
-            _check_zone(v, o.zone(depth), path, "its buffer", lo, hi, walls)
+            _check_zone(v, o.zone(depth), path, _buffer(depth), lo, hi, walls)
         out.append(o)
     return out
+
+
+def _buffer(depth: float) -> str:
+    return f"its buffer ({depth:g} m deep: two kernel supports)"
 
 
 def _check_zone(v, corners: np.ndarray, path: str, what: str, lo, hi, walls: list) -> None:

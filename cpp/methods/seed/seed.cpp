@@ -60,6 +60,15 @@ Real SeedMethod::elastic_energy() const {
   return elastic;
 }
 
+void SeedMethod::particles_added(Index first) {
+  ParticleSet& ps = ctx_.ps;
+  for (Index i = first; i < ps.size(); ++i) {
+    ps.rho[i] = P_.rho0;
+    ps.p[i] = seed::pressure(P_.k, P_.rho0, P_.rho0);
+    ps.a[i] = Vec2::Zero();
+  }
+}
+
 std::size_t SeedMethod::bytes() const {
   return (inv_rho_.capacity() + lap_c_.capacity()) * sizeof(Real) +
          normal_.capacity() * sizeof(Vec2) + cell_floats_.bytes() + floats_.bytes();

@@ -46,6 +46,10 @@ class SeedMethod final : public SphMethod {
   void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
   void evaluate() override { eval_fn_(*this); }
   Real elastic_energy() const override;
+  // Particles added after a step's evaluation (an emitter's rows, an inlet's)
+  // hold the rest values until the next step evaluates them: rho0, the state
+  // equation's pressure there (0), no acceleration.
+  void particles_added(Index first) override;
   bool float_pairs() const override { return float_pairs_; }
   bool recip_root() const override { return recip_root_; }
   std::size_t bytes() const override;
