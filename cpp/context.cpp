@@ -242,14 +242,19 @@ void Context::hold_outlets() {
   // the reference pressure (a summed density's is set by the method).
   const bool pressure = params_.continuity;
   const Real rho0 = params_.rho0;
-#pragma omp parallel for schedule(static) num_threads(team())
+#pragma omp parallel for schedule(static) num_threads(team()) reduction(| : leaving)
   for (Index i = 0; i < n; ++i) {
     held[i] = place[i].zone == Flows::kHeld && lane_v[place[i].lane].squaredNorm() > 0;
     if (!held[i]) continue;
+    // (along the outlet only: the drift across it, walls' reflections
+    // included, stands, and a reflected particle is not pushed back)
     const Vec2 u = lane_v[place[i].lane];
-    x[i] -= dt * (v[i] - u);
+    const Real along_u = u.norm();
+    const Vec2 out = u / along_u;
+    x[i] -= dt * (v[i].dot(out) - along_u) * out;
     v[i] = u;
     if (pressure) rho[i] = rho0;
+    leaving |= flows.outlet_place(x[i], reach).zone == Flows::kPast;  // moved past it now
   }
   search.grid().drop_ahead();  // positions changed since the integration looked ahead
   if (leaving)

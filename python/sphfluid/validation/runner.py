@@ -74,10 +74,10 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("basin", "wcsph", 15): 2.4,  # 1.673 (W26: the spray lands loose)
     ("basin", "wcsph", 20): 3.4,  # 2.363
     ("basin", "wcsph", 30): 2.9,  # 2.065
-    ("channel", "seed", 10): 0.31,  # 0.219 (seed-float 0.192)
-    ("channel", "seed", 20): 0.23,  # 0.166 (seed-float 0.143)
-    ("channel", "wcsph", 10): 0.046,  # 0.0326
-    ("channel", "wcsph", 20): 0.038,  # 0.0273
+    ("channel", "seed", 10): 0.32,  # 0.223 (seed-float 0.187)
+    ("channel", "seed", 20): 0.23,  # 0.148 (seed-float 0.161)
+    ("channel", "wcsph", 10): 0.05,  # 0.0359
+    ("channel", "wcsph", 20): 0.041,  # 0.029
     ("wave_maker", "wcsph", 10): 0.36,  # 0.2564
     ("wave_maker", "wcsph", 15): 0.27,  # 0.1874
     # the seed's viscous fluid damps the waves to a fifth (0.81-0.83, 0.68-0.75 with
