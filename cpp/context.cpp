@@ -41,7 +41,8 @@ Real Context::choose_dt(Real dt_cap) {
   const Real inf = std::numeric_limits<Real>::infinity();
   const Real l = step_length;
   // (a moving wall's speed counts: it may not move more than the flow a step)
-  Real dt = P.cfl * l / (sound_speed + std::sqrt(v2) + walls.max_speed());
+  const Real c = sound_limits_step ? sound_speed : Real(0);
+  Real dt = P.cfl * l / (c + std::sqrt(v2) + walls.max_speed());
   TimeStepLimit limit = TimeStepLimit::kCfl;
   auto consider = [&](Real candidate, TimeStepLimit why) {
     if (candidate < dt) {

@@ -160,6 +160,8 @@ class Context {
   // The method's speed of sound and the length in its time-step conditions
   // (its registration's values for these parameters).
   Real sound_speed = 0, step_length = 0;
+  // Whether the speed of sound enters the CFL condition (the registration's).
+  bool sound_limits_step = true;
 
   // Names the step, the time, the first particle that failed a check after an
   // integration to (x_new, v_new) with densities rho_new, and the check.

@@ -58,6 +58,7 @@ Solver::Solver(const SimParams& params, std::vector<Vec2> positions, std::vector
   const MethodEntry& entry = method_entry(params_.method);
   ctx_.sound_speed = entry.sound_speed(params_);
   ctx_.step_length = entry.step_length(params_);
+  ctx_.sound_limits_step = entry.sound_limits_step;
   method_ = entry.make(ctx_);
   ctx_.on_added = [this](Index first) { method_->particles_added(first); };
   ctx_.rebudget = [this] { compute_energy_budget(); };

@@ -111,6 +111,7 @@ class Solver {
   // The method's surface energy at the last evaluation (wcsph with tension), J
   // per m of depth; 0 otherwise.
   Real surface_energy() const { return method_->surface_energy(); }
+  SolveStats solve_stats() const { return method_->solve_stats(); }
   // Whether the seed's pair forces run in float (asked for, and the step runs
   // them by cell clusters), and whether its double ones take 1/r from Newton
   // steps (by CPU).

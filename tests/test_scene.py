@@ -65,7 +65,7 @@ CASES = [
     (setp(["fluid_regions", 0], {"shape": "polygon", "points": [[0, 0], [0.5, 0.5]]}), r"fluid_regions\[0\].points: expected a list of at least 3 points"),
     (setp(["fluid_regions", 0, "velocity"], [1.0]), r"fluid_regions\[0\].velocity: expected \[x, y\]"),
     (setp(["fluid_regions", 0, "colour"], "blue"), r"fluid_regions\[0\].colour: unknown key"),
-    (setp(["solver", "method"], "sead"), r'solver.method: expected "seed" or "wcsph", got "sead" \(did you mean "seed"\?\)'),
+    (setp(["solver", "method"], "sead"), r'solver.method: expected one of "seed", "wcsph", "dfsph", got "sead" \(did you mean "seed"\?\)'),
     (delp(["solver", "time_step"]), r"solver.time_step: required key is missing"),
     (setp(["solver", "time_step"], -0.001), r"solver.time_step: must be > 0, got -0.001"),
     (setp(["solver", "wall_restitution"], 1.5), r"solver.wall_restitution: must be <= 1, got 1.5"),

@@ -42,9 +42,9 @@ def test_bundled_scenes_run_as_shipped_and_with_each_method(tmp_path):
     (tmp_path / "a.json").write_text(json.dumps(d))
     runs = bundled_scenes(tmp_path)
     assert list(runs) == [("a.json", "seed, dt as shipped (0.001)"), ("a.json", "seed, auto"),
-                          ("a.json", "wcsph, auto")]
+                          ("a.json", "wcsph, auto"), ("a.json", "dfsph, auto")]
     assert runs[("a.json", "seed, dt as shipped (0.001)")]["solver"]["time_step"] == 0.001
-    for how, method in (("seed, auto", "seed"), ("wcsph, auto", "wcsph")):
+    for how, method in (("seed, auto", "seed"), ("wcsph, auto", "wcsph"), ("dfsph, auto", "dfsph")):
         assert runs[("a.json", how)]["solver"] == {"method": method, "time_step": "auto"}
         assert run_one(runs[("a.json", how)] | {"duration": 0.02}, max_wall=60).status == STABLE
 

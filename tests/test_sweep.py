@@ -134,7 +134,7 @@ def test_ranges_grids_zips_methods_and_seeded_draws():
     ({"vary": {"fluid.viscosity": {"steps": [1]}}},
      'vary["fluid.viscosity"].steps: unknown key'),
     ({"vary": {"fluid.viscosity": 0.3}}, 'vary["fluid.viscosity"]: expected a list of values'),
-    ({"methods": ["seed", "wcsp"]}, 'methods[1]: expected "seed" or "wcsph", got "wcsp" '
+    ({"methods": ["seed", "wcsp"]}, 'methods[1]: expected one of "seed", "wcsph", "dfsph", got "wcsp" '
                                     '(did you mean "wcsph"?)'),
     ({"vary": {"fluid.viscosty": [0.1]}},
      'run 0 (fluid.viscosty = 0.1): fluid.viscosty: unknown key (did you mean "viscosity"?)'),
@@ -190,4 +190,4 @@ def test_the_command_line(tmp_path, capsys):
                          "frame_00002.npz", "scene.json"], names
     spec.write_text(json.dumps({"scene": "box.json", "methods": ["sead"]}))
     assert main(["sweep", str(spec)]) == 2
-    assert 'methods[0]: expected "seed" or "wcsph", got "sead"' in capsys.readouterr().err
+    assert 'methods[0]: expected one of "seed", "wcsph", "dfsph", got "sead"' in capsys.readouterr().err

@@ -23,7 +23,8 @@ void bind_params(py::module_& m) {
 
   py::class_<SimParams>(m, "SimParams", "Physical and numerical constants of a run (SI units).")
       .def(py::init<>())
-      .def_readwrite("method", &SimParams::method, "seed (docs/method-seed.md) or wcsph (docs/method-wcsph.md)")
+      .def_readwrite("method", &SimParams::method, "seed (docs/method-seed.md), wcsph (docs/method-wcsph.md) or dfsph "
+                     "(docs/method-dfsph.md)")
       .def_readwrite("c0", &SimParams::c0, "wcsph: speed of sound, m/s")
       .def_readwrite("alpha", &SimParams::alpha, "wcsph: artificial viscosity coefficient")
       .def_readwrite("background_pressure", &SimParams::background_pressure,
@@ -43,6 +44,15 @@ void bind_params(py::module_& m) {
                      "wcsph with continuity: at a free surface floor the pressure at p_b "
                      "and keep the carried density (W26b), instead of flooring the density "
                      "at rho0 (W26)")
+      .def_readwrite("density_tolerance", &SimParams::density_tolerance,
+                     "dfsph: the constant-density solve's tolerance, mean density error / rho0")
+      .def_readwrite("divergence_tolerance", &SimParams::divergence_tolerance,
+                     "dfsph: the divergence-free solve's tolerance, mean density change over "
+                     "a step / rho0")
+      .def_readwrite("min_iterations", &SimParams::min_iterations,
+                     "dfsph: each solve's least iterations")
+      .def_readwrite("max_iterations", &SimParams::max_iterations,
+                     "dfsph: each solve's most iterations (then the step goes on; counted)")
       .def_readwrite("h", &SimParams::h, "smoothing length (kernel support), m")
       .def_readwrite("mass", &SimParams::mass, "particle mass, kg per metre of depth")
       .def_readwrite("rho0", &SimParams::rho0, "rest density, kg/m^3")

@@ -121,6 +121,22 @@ void def_stepping(SolverClass& c) {
                              "wcsph with surface tension: the surface energy sigma x length "
                              "at the last evaluation, J per m of depth (the tension is minus "
                              "its gradient); 0 otherwise")
+      .def_property_readonly(
+          "solve_stats",
+          [](const Solver& s) {
+            const SolveStats st = s.solve_stats();
+            py::dict d;
+            d["density_iterations"] = st.density_iterations;
+            d["divergence_iterations"] = st.divergence_iterations;
+            d["density_error"] = st.density_error;
+            d["divergence_error"] = st.divergence_error;
+            d["unconverged"] = st.unconverged;
+            d["iterations"] = st.iterations;
+            return d;
+          },
+          "dfsph: the last step's iterations and mean errors of both pressure solves "
+          "(over rho0), and over the run the solves stopped at the most iterations and "
+          "the iterations taken; zeros for the other methods")
       .def_property_readonly("retried_steps", &Solver::retried_steps,
                              "steps retried with a halved time step")
       .def_property_readonly("retry_log", &Solver::retry_log,

@@ -11,7 +11,7 @@
 namespace sphfluid {
 
 // The methods (methods/registry.cpp registers each).
-enum class Method : int { kSeed = 0, kWcsph = 1 };
+enum class Method : int { kSeed = 0, kWcsph = 1, kDfsph = 2 };
 
 enum class TimeStepLimit : int { kFixed, kCfl, kForce, kViscous, kMax };
 
@@ -103,6 +103,16 @@ struct SimParams {
   // At a free surface (W26): false floors the density at rho0; true keeps the
   // carried density and floors the pressure at p_b instead (W26b).
   bool surface_pressure = false;
+
+  // dfsph (docs/method-dfsph.md): the solves' tolerances, the mean density
+  // error over rho0 of the constant-density solve and the mean density change
+  // over a step over rho0 of the divergence-free solve (SPlisHSPlasH's 0.01 %
+  // and 0.1 %), and each solve's least and most iterations. c0 then bounds
+  // the guard's speeds only.
+  Real density_tolerance = 1e-4;
+  Real divergence_tolerance = 1e-3;
+  int min_iterations = 2;
+  int max_iterations = 100;
 
   // Speed of sound of the method's state equation, and the length in the
   // time-step conditions (the method's registration says: methods/registry.cpp).

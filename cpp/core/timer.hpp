@@ -7,11 +7,14 @@
 
 namespace sphfluid {
 
-enum Phase : int { kSort, kNeighbours, kGhosts, kDensity, kForces, kIntegrate, kDomain, kNumPhases };
+// kSolve: an implicit method's pressure solves (dfsph).
+enum Phase : int {
+  kSort, kNeighbours, kGhosts, kDensity, kForces, kIntegrate, kDomain, kSolve, kNumPhases
+};
 
 inline const char* phase_name(int p) {
   static const char* names[kNumPhases] = {"sort",   "neighbours", "ghosts", "density",
-                                          "forces", "integrate",  "domain"};
+                                          "forces", "integrate",  "domain", "solve"};
   return names[p];
 }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -16,6 +17,16 @@
 namespace sphfluid {
 
 class Context;
+
+// An implicit method's pressure solves: the last step's iterations and final
+// mean errors (over rho0; the divergence's as a density change over the
+// step), and over the run the solves that stopped at the maximum iterations
+// and the iterations taken.
+struct SolveStats {
+  int density_iterations = 0, divergence_iterations = 0;
+  Real density_error = 0, divergence_error = 0;
+  std::int64_t unconverged = 0, iterations = 0;
+};
 
 class SphMethod {
  public:
@@ -47,6 +58,8 @@ class SphMethod {
   // fields are filled. Its per-particle data the next step reads are fields.
   virtual std::vector<Real> carried() const { return {}; }
   virtual void restore_carried(const std::vector<Real>& values) { (void)values; }
+  // The pressure solves of an implicit method (else all zero).
+  virtual SolveStats solve_stats() const { return {}; }
   // Heap bytes of the method's own arrays, capacity included.
   virtual std::size_t bytes() const = 0;
 };
@@ -60,6 +73,10 @@ struct MethodEntry {
   // time-step conditions, m.
   Real (*sound_speed)(const SimParams&);
   Real (*step_length)(const SimParams&);
+  // Whether the speed of sound limits the time step (false: an implicit
+  // pressure, whose steps follow the flow; the speed of sound then bounds the
+  // guard's speeds only).
+  bool sound_limits_step;
   // Throws std::invalid_argument for a parameter the method cannot run with.
   void (*check)(const SimParams&);
   std::unique_ptr<SphMethod> (*make)(Context&);

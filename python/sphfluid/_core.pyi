@@ -38,6 +38,7 @@ class Method(metaclass=_Pybind11Type):
 
     seed: ClassVar[Method]
     wcsph: ClassVar[Method]
+    dfsph: ClassVar[Method]
     __members__: ClassVar[dict[str, Method]]
     def __init__(self, value: int) -> None: ...
     @property
@@ -67,6 +68,11 @@ class SimParams(metaclass=_Pybind11Type):
     shifting: float  # with continuity: particle shifting coefficient (0: none)
     shift_confined: bool  # with continuity: shift only a flow without a free surface at the start
     surface_pressure: bool  # with continuity: W26b (pressure floored at a free surface), not W26
+    # dfsph
+    density_tolerance: float  # the constant-density solve's mean density error / rho0
+    divergence_tolerance: float  # the divergence-free solve's mean density change a step / rho0
+    min_iterations: int  # each solve's least iterations
+    max_iterations: int  # each solve's most iterations (then the step goes on; counted)
     # the fluid and its particles
     h: float  # smoothing length (kernel support), m
     mass: float  # particle mass, kg per metre of depth
@@ -239,6 +245,10 @@ class Solver(metaclass=_Pybind11Type):
     def surface_energy(self) -> float:
         """wcsph with surface tension: sigma x surface length at the last evaluation, J per m
         of depth; 0 otherwise."""
+    @property
+    def solve_stats(self) -> dict[str, float]:
+        """dfsph: the last step's iterations and mean errors of both pressure solves, the
+        solves stopped at the most iterations and the iterations taken over the run."""
     # what runs and what it costs
     @property
     def features(self) -> int:

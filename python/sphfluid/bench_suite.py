@@ -42,7 +42,7 @@ SIZES = (1_000, 10_000, 100_000, 1_000_000)
 PHASE_LABELS = {"sort": "sort", "neighbours": "neighbours + fluid density",
                 "ghosts": "wall ghosts", "density": "wall density + EOS",
                 "forces": "forces", "integrate": "integrate + walls + guard",
-                "domain": "domain"}
+                "domain": "domain", "solve": "pressure solves"}
 
 
 # The bare loop's steps, warm-up included: a free block without viscosity is

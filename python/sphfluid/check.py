@@ -65,6 +65,14 @@ def step_limit(scene: Scene, cfl: float | None = None) -> StepLimit:
     is left out: the estimate is an upper bound of the core's."""
     if cfl is None:
         cfl = scene.cfl if scene.time_step is None else DEFAULT_CFL
+    if scene.method == "dfsph":  # the flow's speed only, at most max_time_step
+        length, cap = scene.smoothing_length / 2, scene.pressure_solve.max_time_step
+        v0 = max((math.hypot(*r.velocity) for r in scene.regions), default=0.0)
+        dt = min(cfl * length / v0, cap) if v0 > 0 else cap
+        return StepLimit(dt, "cfl" if dt < cap else "dt_max",
+                         f"cfl: {cfl:g} h/2 / |v|max with h/2 = {length:g} m, |v|max = "
+                         f"{v0:g} m/s, at most solver.max_time_step = {cap:g} s (dfsph: no "
+                         "speed of sound)")
     if scene.method == "wcsph":  # its Wendland kernel's smoothing length h/2, its c0
         from .simulation import speed_of_sound
 

@@ -230,7 +230,7 @@ def _add_bench(sub) -> None:
     b.add_argument("--steps", type=_count, default=1000)
     b.add_argument("--warmup", type=_count, default=100)
     b.add_argument("--threads", default="1,2", help="comma-separated thread counts")
-    b.add_argument("--method", choices=("seed", "wcsph"), default="seed",
+    b.add_argument("--method", choices=("seed", "wcsph", "dfsph"), default="seed",
                    help="the method to time (the same fixed dt for both)")
     b.add_argument("--pair-precision", default="double", metavar="PRECISION",
                    help="the seed's pair forces in double (default) or float, or both as "
@@ -790,6 +790,11 @@ def _print_summary(run: _Run) -> None:
     print(f"particles           {sim.n_particles:,}")
     print(f"removed particles   {sim.removed_particles:,} (left the domain)")
     scene = sim.scene
+    if scene.method == "dfsph":
+        its = st["solve_iterations"]
+        print(f"pressure solves     {its:,} iterations ({its / max(done, 1):.1f} a step; last "
+              f"step {st['solve_density_iterations']} + {st['solve_divergence_iterations']}); "
+              f"{st['solve_unconverged']:,} stopped at max_iterations")
     if scene.emitters or scene.sinks or scene.inlets or scene.outlets:
         b = sim.balance
         print(f"particle balance    {b['placed']:,} placed + {b['in']:,} in - {b['out']:,} out - "

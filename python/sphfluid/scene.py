@@ -44,6 +44,8 @@ DEFAULT_DENSITY_DIFFUSION = _schema.default("solver", "density_diffusion")
 DEFAULT_SHIFTING = _schema.default("solver", "shifting")
 DEFAULT_FREE_SURFACE = _schema.default("solver", "free_surface")
 AUTO_SHIFTING = 8.0
+DFSPH_KEYS = ("density_tolerance", "divergence_tolerance", "min_iterations", "max_iterations",
+              "max_time_step")  # dfsph's solver keys (PressureSolve's fields)
 DEFAULT_SMOOTHING_FACTOR = 2.0  # h = factor * spacing
 CONTINUITY_SMOOTHING_FACTOR = 3.0  # wcsph with continuity: support over spacing
 # Mueller et al. (2003): threshold l = 7.065 /m at h = 0.0457 m, so l h = 0.323.
@@ -146,6 +148,25 @@ class Region:
 
 
 @dataclass(frozen=True)
+class PressureSolve:
+    """dfsph's pressure solves (docs/method-dfsph.md): the tolerances as fractions
+    of rho0 (the constant-density solve's mean density error; the divergence-free
+    solve's mean density change over a step), each solve's least and most
+    iterations, and the adaptive step's largest value."""
+
+    density_tolerance: float = _schema.default("solver", "density_tolerance")
+    divergence_tolerance: float = _schema.default("solver", "divergence_tolerance")
+    min_iterations: int = _schema.default("solver", "min_iterations")
+    max_iterations: int = _schema.default("solver", "max_iterations")
+    max_time_step: float = _schema.default("solver", "max_time_step")  # s
+
+    def to_dict(self) -> dict:
+        """The keys that differ from the defaults, as the solver section writes them."""
+        default = PressureSolve()
+        return {k: getattr(self, k) for k in DFSPH_KEYS if getattr(self, k) != getattr(default, k)}
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene. Lengths in m, densities in kg/m^3, times in s."""
 
@@ -183,6 +204,7 @@ class Scene:
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     # wcsph with continuity, at a free surface: "density_floor" (W26), "pressure_floor" (W26b)
     free_surface: str = DEFAULT_FREE_SURFACE
+    pressure_solve: PressureSolve = PressureSolve()  # dfsph's solves
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
     emitters: tuple = ()  # of flows.Emitter: nozzles emitting jets (extension)
@@ -273,6 +295,10 @@ class Scene:
         if self.method == "wcsph" and self.density == "continuity" and \
                 self.free_surface != DEFAULT_FREE_SURFACE:
             out["solver"]["free_surface"] = self.free_surface
+        if self.method == "dfsph":
+            out["solver"].update(self.pressure_solve.to_dict())
+            if self.time_step is not None:
+                out["solver"].pop("max_time_step", None)
         if self.duration is not None:
             out["duration"] = self.duration
         if self.probes is not None:
@@ -365,6 +391,7 @@ class _Solver(NamedTuple):
     density_diffusion: float | None
     shifting: float | str | None
     free_surface: str | None
+    pressure_solve: PressureSolve
 
 
 class _Fluid(NamedTuple):
@@ -440,6 +467,7 @@ class _Validator:
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
         self.check_sliding_walls(solver)
+        self.check_dfsph_scope(d, solver)
         self.check_regions_inside(domain, regions)
         self.check_walls_near(domain, walls)
         if res.dx and regions and not self.problems:
@@ -461,6 +489,7 @@ class _Validator:
                       background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
                       density=solver.density, density_diffusion=solver.density_diffusion,
                       shifting=solver.shifting, free_surface=solver.free_surface,
+                      pressure_solve=solver.pressure_solve,
                       probes=probes, emitters=tuple(emitters),
                       sinks=tuple(sinks), inlets=tuple(inlets), outlets=tuple(outlets),
                       source=self.source)
@@ -512,7 +541,19 @@ class _Validator:
                                           DEFAULT_DENSITY_DIFFUSION),
             shifting=shifting if isinstance(shifting, str) or shifting is None
             else float(shifting),
-            free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE))
+            free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE),
+            pressure_solve=self.pressure_solve(solver))
+
+    def pressure_solve(self, solver: dict) -> PressureSolve:
+        """dfsph's solver keys (the schema allows them with dfsph only)."""
+        d = PressureSolve()
+        values = {k: self.value(solver, k, "solver.", getattr(d, k)) for k in DFSPH_KEYS}
+        values = {k: (getattr(d, k) if v is None else type(getattr(d, k))(v))
+                  for k, v in values.items()}
+        lo, hi = values["min_iterations"], values["max_iterations"]
+        if isinstance(lo, int) and isinstance(hi, int) and hi < lo:
+            self.fail("solver.max_iterations", f"must be >= min_iterations ({lo}), got {hi}")
+        return PressureSolve(**values)
 
     def flows(self, d: dict, domain: _Domain, res: _Resolution, walls: list,
               solver: _Solver, fluid: _Fluid) -> tuple[list, list[Region], list, list]:
@@ -678,6 +719,22 @@ class _Validator:
                                                       and solver.density == "continuity"):
             self.fail(self._moving_wall, 'a wall\'s velocity needs "method": "wcsph" with '
                       '"density": "continuity" (docs/method-wcsph.md, W25)')
+
+    def check_dfsph_scope(self, d: dict, solver: _Solver) -> None:
+        """What dfsph does not take yet (docs/method-dfsph.md, "Not yet"): moving
+        walls (its wall terms take the walls at rest) and inlets or outlets (their
+        buffers hold a pressure the solves do not know)."""
+        if solver.method != "dfsph":
+            return
+        for k, m in enumerate(getattr(self, "_motions", [])):
+            if m is not None:
+                self.fail(f"{self._wall_paths[k]}.motion", 'a moving wall needs "method": '
+                          '"seed" or "wcsph" (dfsph takes walls at rest)')
+                break
+        for key in ("inlets", "outlets"):
+            if d.get(key):
+                self.fail(key, 'needs "method": "seed" or "wcsph" (dfsph does not hold '
+                          'buffers yet)')
 
     def segment(self, item: list, path: str) -> list[tuple[Point, Point]]:
         """[[x1, y1], [x2, y2]] as a list of one segment (none after a problem)."""

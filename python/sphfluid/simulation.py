@@ -58,7 +58,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
     p.h = scene.smoothing_length
     p.rho0 = scene.rest_density
     p.method = _core.Method.__members__[scene.method]  # the registered methods' names
-    if scene.method == "wcsph":
+    if scene.method in ("wcsph", "dfsph"):  # dfsph: c0 bounds the guard's speeds only
         p.c0 = speed_of_sound(scene)
         p.alpha = scene.artificial_viscosity
         p.background_pressure = scene.background_pressure
@@ -94,6 +94,13 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
             p.shifting, p.shift_confined = AUTO_SHIFTING, True
         else:
             p.shifting = scene.shifting
+    if scene.method == "dfsph":
+        ps = scene.pressure_solve
+        p.density_tolerance = ps.density_tolerance
+        p.divergence_tolerance = ps.divergence_tolerance
+        p.min_iterations = ps.min_iterations
+        p.max_iterations = ps.max_iterations
+        p.dt_max = ps.max_time_step
     # The guard bounds the surface energy by sigma x the regions' perimeters.
     p.surface_length = sum(r.perimeter() for r in scene.regions)
     p.max_retries = RETRIES if scene.on_instability == "retry" else 0
@@ -332,13 +339,18 @@ class Simulation:
             tips.append(f'a smaller "solver.cfl" (now {s.cfl:g})')
         stiffness = ('"fluid.gas_constant"' if s.method == "seed" else
                      f'"fluid.speed_of_sound" (now {speed_of_sound(s):g} m/s)')
-        if "[check: density]" in msg:
+        if s.method == "dfsph":
+            tips.append(f'a tighter "solver.density_tolerance" (now '
+                        f'{s.pressure_solve.density_tolerance:g}) or more '
+                        f'"solver.max_iterations" (now {s.pressure_solve.max_iterations})')
+        elif "[check: density]" in msg:
             tips.append(f"a stiffer fluid, a larger {stiffness}")
         if s.method == "seed":
             tips.append(f'more "fluid.viscosity" (now {s.viscosity:g} Pa s; the seed\'s own '
                         'scenes run with 30-100), or "solver.method": "wcsph", which keeps '
                         "water stable")
-        elif "[check: energy]" in msg or "[check: speed]" in msg or "[check: finite]" in msg:
+        elif s.method == "wcsph" and ("[check: energy]" in msg or "[check: speed]" in msg
+                                      or "[check: finite]" in msg):
             tips.append(f'more "fluid.artificial_viscosity" (now {s.artificial_viscosity:g})')
         if s.on_instability == "stop":
             tips.append('"solver.on_instability": "retry", which retries a tripped step with '
@@ -620,4 +632,8 @@ class Simulation:
             # J per m depth carried out of the domain by removed particles (the guard counts it)
             "energy_removed": self._solver.energy_removed,
             "surface_energy": self.surface_energy,  # J per m depth (wcsph with tension)
+            # dfsph: the last step's iterations and mean errors of both solves (over rho0;
+            # the divergence's over the step), and over the run the solves stopped at
+            # max_iterations and the iterations taken (zeros for the other methods)
+            **{f"solve_{k}": v for k, v in self._solver.solve_stats.items()},
         }

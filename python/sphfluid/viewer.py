@@ -625,6 +625,8 @@ class _Window:
                 f"  max compression {100 * st['max_compression']:.1f} %  dt "
                 f"{sim.dt:.2e} s ({sim.dt_limit})  {sim.scene.method}"
                 + (" (float pairs)" if st["pair_precision"] == "float" else "")
+                + (f" ({st['solve_density_iterations']}+{st['solve_divergence_iterations']} "
+                   "iterations)" if sim.scene.method == "dfsph" else "")
                 + f"  {self.n_steps} steps/frame"
                 + ("  PAUSED" if self.paused else ""))
 

@@ -32,8 +32,10 @@
 // the node lattice's discreteness (the lattice is fixed in space).
 #pragma once
 
+#include <cmath>
 #include <vector>
 
+#include "core/params.hpp"
 #include "core/periodic.hpp"
 #include "core/types.hpp"
 #include "terms/wendland.hpp"
@@ -47,6 +49,13 @@ class SurfaceEnergy {
   SurfaceEnergy(Real sigma, Real support, Real spacing, const Vec2& origin,
                 const PeriodicBox& box);
   SurfaceEnergy() = default;
+  // The summed-density methods' tension (wcsph with the summation, dfsph):
+  // the colour kernel's support 2 h, nodes dx/2 apart; inactive without sigma.
+  static SurfaceEnergy summed(const SimParams& P, const PeriodicBox& box) {
+    if (!(P.sigma > 0)) return {};
+    return {P.sigma, 2 * P.h, P.spacing > 0 ? P.spacing : std::sqrt(P.mass / P.rho0),
+            P.domain_min, box};
+  }
 
   // E_s of the particles at x, and for each minus its gradient over m.
   void evaluate(const Vec2* x, Index n, Real mass, int threads);

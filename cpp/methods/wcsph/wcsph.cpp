@@ -20,10 +20,7 @@ namespace sphfluid {
 WcsphMethod::WcsphMethod(Context& ctx)
     : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
   walls_.build(P_.spacing, P_.mass / P_.rho0);
-  if (P_.sigma > 0)  // surface_energy.hpp: colour kernel support 2 h, nodes dx/2 apart
-    surface_ = SurfaceEnergy(P_.sigma, 2 * P_.h,
-                             P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0),
-                             P_.domain_min, ctx.box);
+  surface_ = SurfaceEnergy::summed(P_, ctx.box);
 }
 
 void WcsphMethod::select(unsigned features) {

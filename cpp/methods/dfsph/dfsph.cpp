@@ -1,0 +1,310 @@
+// The dfsph method's step (docs/method-dfsph.md) as ordered phases, each one
+// parallel loop over full neighbour lists whose sums do not depend on the
+// thread count: the constant-density solve, semi-implicit Euler (the kick and
+// the drift with the wall collision), then at the new positions the summation
+// density (D1) with the walls (W7, D2), the stiffness factors (D3), the
+// divergence-free solve, and the non-pressure accelerations.
+#include "methods/dfsph/dfsph.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "integrate.hpp"
+#include "neighbours/pair_loops.hpp"
+#include "terms/wcsph.hpp"
+
+namespace sphfluid {
+
+namespace {
+
+// A gather visitor (neighbours/pair_loops.hpp) from an accumulator's start
+// value and two functions: pair(acc, i, j, r, r2) and end(i, acc).
+template <class Acc, class Pair, class End>
+struct Gather {
+  Acc init;
+  Pair on_pair;
+  End on_end;
+  Acc begin(Index) const { return init; }
+  void pair(Acc& acc, Index i, Index j, const Vec2& r, Real r2, bool) const {
+    on_pair(acc, i, j, r, r2);
+  }
+  void end(Index i, const Acc& acc) const { on_end(i, acc); }
+};
+
+}  // namespace
+
+DfsphMethod::DfsphMethod(Context& ctx)
+    : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
+  walls_.build(P_.spacing, P_.mass / P_.rho0);
+  surface_ = SurfaceEnergy::summed(P_, ctx.box);
+}
+
+void DfsphMethod::select(unsigned features) {
+  static constexpr auto steps = feature_table<Steps, StepFn>();
+  static constexpr auto evals = feature_table<Evaluations, EvalFn>();
+  step_fn_ = steps[features];
+  eval_fn_ = evals[features];
+}
+
+void DfsphMethod::particles_added(Index first) {
+  for (Index i = first; i < ctx_.size(); ++i) kappa_[i] = kappa_v_[i] = 0;
+}
+
+std::size_t DfsphMethod::bytes() const {
+  return (factor_.capacity() + e_.capacity() + dk_.capacity() + rho0s_.capacity() +
+          inv_rho_.capacity()) * sizeof(Real) +
+         (first_.capacity() + pair_j_.capacity()) * sizeof(Index) +
+         (wall_g_.capacity() + a_np_.capacity() + u_.capacity() + pair_mg_.capacity()) *
+             sizeof(Vec2) +
+         walls_.bytes() + surface_.bytes();
+}
+
+template <unsigned F, class Acc, class Pair, class End>
+void DfsphMethod::each_pair(Acc init, Pair pair, End end) const {
+  const ParticleSet& ps = ctx_.ps;
+  Gather<Acc, Pair, End> visitor{init, pair, end};
+  const PeriodicBox& box = ctx_.box;
+  pair_loops::gather(ctx_.search.lists(), ps.x.data(), ps.size(), ctx_.team(),
+                     [&](const Vec2& p, const Vec2& q) {
+                       if constexpr ((F & kPeriodic) != 0) {
+                         return box.delta(p, q);
+                       } else {
+                         return Vec2(p - q);
+                       }
+                     },
+                     visitor);
+}
+
+// Semi-implicit Euler around the two solves (Bender & Koschier 2017, Alg. 1):
+// the predicted velocities v + dt a made to keep rho0 over the step, the
+// drift with them, then at the new positions the velocities made
+// divergence-free and the next step's non-pressure accelerations.
+template <unsigned F>
+void DfsphMethod::step_impl(Real dt, Real dt_cap) {
+  ParticleSet& ps = ctx_.ps;
+  if (!evaluated_ || a_np_.size() != static_cast<std::size_t>(ps.size())) {
+    neighbours<F>();  // restored from a checkpoint: evaluated afresh
+    non_pressure<F>();
+  }
+  std::copy(a_np_.begin(), a_np_.end(), ps.a.data());  // a retried step starts over
+  dt = ctx_.step_size(dt, dt_cap);
+  ctx_.timer.start();
+  density_solve<F>(dt);
+  ctx_.timer.mark(kSolve);
+  ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, dt);
+  ctx_.timer.mark(kIntegrate);
+  ctx_.leave_domain();
+  ctx_.timer.mark(kDomain);
+  neighbours<F>();
+  divergence_solve<F>(dt);
+  ctx_.timer.mark(kSolve);
+  non_pressure<F>();
+  ctx_.advance(dt);
+}
+
+// D1 (W2 with the walls' W7), D2 and D3.
+template <unsigned F>
+void DfsphMethod::neighbours() {
+  ParticleSet& ps = ctx_.ps;
+  ctx_.search.lists<(F & kPeriodic) != 0, false>(ps, P_.h, P_.mass, ctx_.team(), ctx_.box,
+                                                  weight_, ctx_.timer);
+  const Index n = ps.size();
+  const Real rho0 = P_.rho0;
+  Real* rho = ps.rho.data();
+  wall_g_.assign(n, Vec2::Zero());
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.find(ctx_.walls, ps.x.data(), n, P_.h, ctx_.team(), true);
+    ctx_.timer.mark(kGhosts);
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+      Real rho_i = rho[i];
+      wcsph::add_wall_density(walls_, rho0, ghosts, rho_i);
+      rho[i] = rho_i;
+      wall_g_[i] = dfsph::wall_gradient(walls_, P_.h, rho0, ghosts);
+    });
+  }
+  // The pair table: each particle's neighbours and m grad W_ij, in list order,
+  // with the sums of D3 taken as it is filled.
+  const Csr<Index>& lists = ctx_.search.lists();
+  first_.resize(n + 1);
+  first_[0] = 0;
+  for (Index i = 0; i < n; ++i) {
+    const Row<Index> row = lists.row(i);
+    first_[i + 1] = first_[i] + static_cast<Index>(row.end() - row.begin());
+  }
+  pair_j_.resize(first_[n]);
+  pair_mg_.resize(first_[n]);
+  factor_.resize(n);
+  const Real m = P_.mass;
+  const Vec2* x = ps.x.data();
+  const PeriodicBox& box = ctx_.box;
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    Vec2 sum = Vec2::Zero();
+    Real q = 0;
+    Index k = first_[i];
+    for (const Index j : lists.row(i)) {
+      Vec2 r;
+      if constexpr ((F & kPeriodic) != 0) {
+        r = box.delta(x[i], x[j]);
+      } else {
+        r = x[i] - x[j];
+      }
+      const Vec2 mg = (m * kernel_.gradient_factor(std::sqrt(r.squaredNorm()))) * r;
+      pair_j_[k] = j;
+      pair_mg_[k++] = mg;
+      sum += mg;
+      q += mg.squaredNorm();
+    }
+    factor_[i] = dfsph::stiffness_factor(sum + wall_g_[i], q);
+  }
+  ctx_.timer.mark(kDensity);
+}
+
+// W6 and W9 (physical viscosity, no artificial one), the tension, gravity;
+// the pressure the last density solve found, p = k rho^2.
+template <unsigned F>
+void DfsphMethod::non_pressure() {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  Vec2* a = ps.a.data();
+  const Real* rho = ps.rho.data();
+  const Vec2* v = ps.v.data();
+  if constexpr ((F & kViscosity) != 0) {
+    inv_rho_.resize(n);
+    for (Index i = 0; i < n; ++i) inv_rho_[i] = 1 / rho[i];
+    wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
+    c.av = 0;
+    each_pair<F>(
+        Vec2(Vec2::Zero()),
+        [&](Vec2& f, Index i, Index j, const Vec2& r, Real r2) {
+          Real fx, fy;
+          const Vec2 vij = v[i] - v[j];
+          wcsph::PairForce<true>::f(r2 < kernel_.h2, kernel_, c, rho[i] + rho[j], Real(0),
+                                    inv_rho_[i], inv_rho_[j], r.x(), r.y(), r2, vij.x(),
+                                    vij.y(), fx, fy);
+          f += Vec2(fx, fy);
+        },
+        [&](Index i, const Vec2& f) {
+          Vec2 fi = f;
+          if constexpr ((F & kWalls) != 0)
+            wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ctx_.ghosts.row(i), 0,
+                                        inv_rho_[i], v[i], fi);
+          a[i] = fi;
+        });
+  } else {
+    std::fill(a, a + n, Vec2::Zero());
+  }
+  if constexpr ((F & kSurfaceTension) != 0)
+    surface_.evaluate(ps.x.data(), n, P_.mass, ctx_.team());
+  ctx_.add_gravity_and_kick(0, (F & kSurfaceTension) != 0 ? surface_.accelerations() : nullptr);
+  a_np_.assign(a, a + n);
+  evaluated_ = true;
+  Real* p = ps.p.data();
+  for (Index i = 0; i < n; ++i) p[i] = kappa_[i] * rho[i] * rho[i];
+  ctx_.timer.mark(kForces);
+}
+
+template <unsigned F>
+void DfsphMethod::density_solve(Real dt) {
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  const Vec2* v = ps.v.data();
+  Vec2* a = ps.a.data();
+  u_.resize(n);
+  for (Index i = 0; i < n; ++i) u_[i] = v[i] + dt * a[i];
+  const Solve s = solve<F>(u_.data(), kappa_.data(), ps.rho.data(), dt, P_.density_tolerance);
+  const Real inv_dt = 1 / dt;
+  for (Index i = 0; i < n; ++i) a[i] = (u_[i] - v[i]) * inv_dt;
+  stats_.density_iterations = s.iterations;
+  stats_.density_error = s.error;
+  stats_.iterations += s.iterations;
+  if (!s.converged) ++stats_.unconverged;
+}
+
+template <unsigned F>
+void DfsphMethod::divergence_solve(Real dt) {
+  ParticleSet& ps = ctx_.ps;
+  rho0s_.assign(ps.size(), P_.rho0);
+  // A particle short of neighbours (spray, a thin sheet) takes no part: its
+  // base is so low that it never asks for pressure (SPlisHSPlasH skips the
+  // divergence of particles with few neighbours likewise).
+  for (Index i = 0; i < ps.size(); ++i)
+    if (ps.rho[i] < dfsph::kDeficient * P_.rho0) rho0s_[i] = -std::numeric_limits<Real>::infinity();
+  const Solve s = solve<F>(ps.v.data(), kappa_v_.data(), rho0s_.data(), dt,
+                           P_.divergence_tolerance);
+  stats_.divergence_iterations = s.iterations;
+  stats_.divergence_error = s.error;
+  stats_.iterations += s.iterations;
+  if (!s.converged) ++stats_.unconverged;
+}
+
+// Jacobi on the pressure values, warm-started: the last values act first,
+// then each iteration measures the errors and corrects by D6, from at least
+// min_iterations to at most max_iterations corrections.
+template <unsigned F>
+DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol) {
+  Solve s;
+  const Index n = ctx_.size();
+  if (n == 0) {
+    s.converged = true;
+    return s;
+  }
+  e_.resize(n);
+  dk_.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    dk_[i] = k[i];
+    k[i] = 0;
+  }
+  apply<F>(u, k, dt);
+  for (int it = 0;; ++it) {
+    s.iterations = it;
+    s.error = errors<F>(u, k, base, dt) / (static_cast<Real>(n) * P_.rho0);
+    if (!std::isfinite(s.error)) return s;  // the guard names the particle
+    if (it >= P_.min_iterations && s.error <= tol) {
+      s.converged = true;
+      return s;
+    }
+    if (it >= P_.max_iterations) return s;
+    apply<F>(u, k, dt);
+  }
+}
+
+// D4 into e = base + dt rate - rho0, and D6's dk; the sum of max(e, 0), in
+// index order.
+template <unsigned F>
+Real DfsphMethod::errors(const Vec2* u, const Real* k, const Real* base, Real dt) {
+  const Real rho0 = P_.rho0, inv_dt2 = 1 / (dt * dt);
+  const Index n = ctx_.size();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    const Vec2 ui = u[i];
+    Real rate = ui.dot(wall_g_[i]);
+    for (Index q = first_[i]; q < first_[i + 1]; ++q)
+      rate += dfsph::rate_pair(ui - u[pair_j_[q]], pair_mg_[q]);
+    const Real e = base[i] + dt * rate - rho0;
+    e_[i] = e;
+    dk_[i] = dfsph::pressure_change(k[i], e, factor_[i], inv_dt2);
+  }
+  Real sum = 0;
+  for (const Real e : e_) sum += std::max(e, Real(0));
+  return sum;
+}
+
+// D5 with the changes dk: u += dt a_p(dk), k += dk.
+template <unsigned F>
+void DfsphMethod::apply(Vec2* u, Real* k, Real dt) {
+  const Real* dk = dk_.data();
+  const Index n = ctx_.size();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    const Real dki = dk[i];
+    Vec2 acc = -dki * wall_g_[i];
+    for (Index q = first_[i]; q < first_[i + 1]; ++q)
+      acc += dfsph::pressure_pair(dki, dk[pair_j_[q]], pair_mg_[q]);
+    u[i] += dt * acc;
+    k[i] += dki;
+  }
+}
+
+}  // namespace sphfluid

@@ -1,0 +1,124 @@
+// The dfsph method (docs/method-dfsph.md): divergence-free SPH after Bender &
+// Koschier (2015, 2017), in 2D. Its step as named phases: the step size from
+// the flow (no speed of sound), the constant-density solve on the predicted
+// velocities (D6), the kick and drift (with the wall collision and the
+// guard), the domain's edge, then at the new positions: the neighbour search
+// with the summation density (D1), the walls' ghosts and shares (W7, D2), the
+// stiffness factors (D3), the divergence-free solve on the velocities (D6),
+// and the non-pressure accelerations of the next step (viscosity W6/W9, the
+// tension W10-W12, gravity). Both solves are Jacobi iterations on per-particle
+// pressure values, warm-started from the previous step's, over full
+// neighbour lists: each sum in one order whatever the thread count.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "context.hpp"
+#include "core/features.hpp"
+#include "methods/method.hpp"
+#include "methods/wcsph/surface_energy.hpp"
+#include "terms/dfsph.hpp"
+#include "terms/wall_tables.hpp"
+#include "terms/wendland.hpp"
+
+namespace sphfluid {
+
+class DfsphMethod final : public SphMethod {
+ public:
+  explicit DfsphMethod(Context& ctx);
+
+  void select(unsigned features) override;
+  void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
+  void evaluate() override { eval_fn_(*this); }
+  // Incompressible: no state equation stores energy.
+  Real elastic_energy() const override { return 0; }
+  Real surface_energy() const override { return surface_.energy(); }
+  SolveStats solve_stats() const override { return stats_; }
+  void particles_added(Index first) override;
+  // A checkpoint's fields replace the state: the next step evaluates first.
+  void restore_carried(const std::vector<Real>&) override { evaluated_ = false; }
+  std::size_t bytes() const override;
+
+  struct Steps {
+    template <unsigned F>
+    static void run(DfsphMethod& m, Real dt, Real dt_cap) {
+      m.step_impl<F>(dt, dt_cap);
+    }
+  };
+  struct Evaluations {
+    template <unsigned F>
+    static void run(DfsphMethod& m) {
+      m.neighbours<F>();
+      m.non_pressure<F>();
+    }
+  };
+
+ private:
+  template <unsigned F> void step_impl(Real dt, Real dt_cap);
+  // The search, the density (D1) and the walls' shares, and the stiffness
+  // factors (D3), at the current positions.
+  template <unsigned F> void neighbours();
+  // a = the viscosity (W6, W9) + the tension + g, kept for the next step.
+  template <unsigned F> void non_pressure();
+  // The constant-density solve: the velocities v + dt a corrected until the
+  // density they make over dt is within the tolerance of rho0; a then holds
+  // the total acceleration. The divergence-free solve: v corrected until its
+  // rate of density change is within the tolerance.
+  template <unsigned F> void density_solve(Real dt);
+  template <unsigned F> void divergence_solve(Real dt);
+  // One Jacobi solve on the velocities u (n): the pressure values k (a field,
+  // warm start in, result out) with per-particle error e_i = base_i + dt
+  // rho_rate_i(u) - rho0 (base: rho for the density, rho0 for the
+  // divergence), until mean(max(e, 0)) <= tol; iterations and the last mean.
+  struct Solve {
+    int iterations = 0;
+    Real error = 0;
+    bool converged = false;
+  };
+  template <unsigned F> Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
+  // The rate of density change (D4) of every particle from velocities u, into
+  // e as base + dt rate - rho0; and the pressure changes dk; returns the sum
+  // of max(e, 0).
+  template <unsigned F> Real errors(const Vec2* u, const Real* k, const Real* base, Real dt);
+  // u += dt a_p(dk) (D5) and k += dk.
+  template <unsigned F> void apply(Vec2* u, Real* k, Real dt);
+  // Each particle over its full neighbour list (the viscosity), from an accumulator of value
+  // init: pair(acc, i, j, r_ij, r^2) for each neighbour, then end(i, acc);
+  // across periodic seams by minimum images.
+  template <unsigned F, class Acc, class Pair, class End>
+  void each_pair(Acc init, Pair pair, End end) const;
+
+  using StepFn = void(DfsphMethod&, Real, Real);
+  using EvalFn = void(DfsphMethod&);
+
+  Context& ctx_;
+  const SimParams& P_;
+  Wendland kernel_;
+  WendlandWeight weight_;
+  WallTables walls_;       // the walls' half-plane shares (W7, D2)
+  SurfaceEnergy surface_;  // the tension (inactive without it)
+  StepFn* step_fn_ = nullptr;
+  EvalFn* eval_fn_ = nullptr;
+  // The solves' pressure values (p / rho^2), the warm starts of the next step.
+  Field<Real> kappa_{ctx_.ps, "dfsph_pressure", FieldKind::kState};
+  Field<Real> kappa_v_{ctx_.ps, "dfsph_divergence_pressure", FieldKind::kState};
+  // The pair table of the last evaluation: particle i's neighbours
+  // pair_j_[first_[i] .. first_[i+1]) and m grad W_ij for each (the solves'
+  // iterations read it instead of the kernel).
+  std::vector<Index> first_, pair_j_;
+  std::vector<Vec2> pair_mg_;
+  std::vector<Real> factor_;  // D3
+  std::vector<Vec2> wall_g_;  // D2 (zero without walls)
+  std::vector<Vec2> a_np_;    // the non-pressure accelerations of the last evaluation
+  std::vector<Vec2> u_;       // the density solve's predicted velocities
+  std::vector<Real> e_, dk_;  // per particle: the error and the pressure change
+  std::vector<Real> rho0s_;   // rho0 per particle (the divergence solve's base)
+  std::vector<Real> inv_rho_;  // 1 / rho (the viscosity)
+  SolveStats stats_;
+  // The search, factors and a_np_ hold for the current particles (the step
+  // starts with a solve over them); false after a checkpoint is restored.
+  bool evaluated_ = false;
+};
+
+}  // namespace sphfluid

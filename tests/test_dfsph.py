@@ -1,0 +1,247 @@
+"""The dfsph method (docs/method-dfsph.md): its step against a brute-force NumPy
+evaluation, the solves' convergence and reports, determinism and bad input."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+import sphfluid
+from sphfluid.scene import SceneError
+
+RHO0 = 1000.0
+DX = 0.02
+
+
+def scene(**solver) -> dict:
+    return {
+        "format": "sphfluid-scene/1", "name": "dfsph block", "gravity": [0.0, -9.81],
+        "domain": {"min": [-1.0, -1.0], "max": [1.5, 1.5]},
+        "fluid": {"rest_density": RHO0, "viscosity": 0.0, "speed_of_sound": 20.0},
+        "resolution": {"spacing": DX},
+        "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.24, 0.24]}],
+        "walls": [],
+        "solver": {"method": "dfsph", "time_step": "auto", **solver},
+    }
+
+
+def tank(**solver) -> dict:
+    d = scene(**solver)
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.4, 0.3]}]
+    d["walls"] = [{"polyline": [[0.0, 0.6], [0.0, 0.0], [0.4, 0.0], [0.4, 0.6]]}]
+    return d
+
+
+# ----------------------------------------------------------------- NumPy model
+def kernel(h):
+    w0, g0 = 7 / (np.pi * h * h), -140 / (np.pi * h**4)
+
+    def pairs(x, periodic=None):
+        r = x[:, None, :] - x[None, :, :]
+        if periodic is not None:
+            r -= periodic * np.round(r / periodic)
+        d = np.linalg.norm(r, axis=2)
+        q = np.clip(d / h, 0, 1)
+        a = 1 - q
+        w = w0 * a**4 * (1 + 4 * q)
+        grad = (g0 * a**3)[:, :, None] * r  # grad_i W_ij, zero on the diagonal (r = 0)
+        return w, grad
+
+    return pairs
+
+
+def density_and_factor(x, m, pairs, periodic=None):
+    w, grad = pairs(x, periodic)
+    rho = m * w.sum(axis=1)  # W(0) on the diagonal
+    mg = m * grad
+    s = mg.sum(axis=1)
+    q = (mg * mg).sum(axis=(1, 2))
+    return rho, 1 / ((s * s).sum(axis=1) + q), mg
+
+
+def rate(u, mg):
+    """D4: sum_j m (u_i - u_j) . grad W_ij."""
+    uij = u[:, None, :] - u[None, :, :]
+    return (uij * mg).sum(axis=(1, 2))
+
+
+def correct(u, e, f, mg, dt):
+    """One Jacobi correction from k = 0 (D6 with omega = 0.5, D5)."""
+    dk = np.maximum(0.5 * e * f / dt**2, 0.0)
+    acc = -((dk[:, None] + dk[None, :])[:, :, None] * mg).sum(axis=1)
+    return u + dt * acc
+
+
+def test_one_step_matches_a_brute_force_evaluation():
+    """One correction in each solve (min = max = 1 iteration), on a compressed,
+    jittered block with converging velocities: positions and velocities after the
+    step match NumPy's D1-D6 to round-off."""
+    d = scene(time_step=0.002, min_iterations=1, max_iterations=1)
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    rng = np.random.default_rng(3)
+    n = sim.n_particles
+    x0 = sim.positions * 0.93 + rng.normal(scale=0.1 * DX, size=(n, 2))
+    v0 = -0.5 * (x0 - x0.mean(axis=0)) + rng.normal(scale=0.05, size=(n, 2))
+    sim.set_state(x0, v0)
+    m, h, dt, g = sim.particle_mass, sim.smoothing_length, 0.002, np.array([0.0, -9.81])
+    pairs = kernel(h)
+
+    rho, f, mg = density_and_factor(x0, m, pairs)
+    u = v0 + dt * g
+    e = rho + dt * rate(u, mg) - RHO0
+    assert (e > 0).sum() > n // 2  # the density solve has work to do
+    v1 = correct(u, e, f, mg, dt)
+    x1 = x0 + dt * v1
+    rho1, f1, mg1 = density_and_factor(x1, m, pairs)
+    e1 = np.where(rho1 < 0.8 * RHO0, -np.inf, dt * rate(v1, mg1))
+    v2 = correct(v1, e1, f1, mg1, dt)
+
+    sim.step()
+    order = np.argsort(sim.ids)
+    assert np.allclose(sim.positions[order], x1, rtol=0, atol=1e-12)
+    assert np.allclose(sim.velocities[order], v2, rtol=1e-9, atol=1e-9)
+    assert not np.allclose(v2, v1)  # the divergence solve acted
+    st = sim.stats()
+    assert st["solve_density_iterations"] == 1 and st["solve_divergence_iterations"] == 1
+
+
+def test_a_divergent_velocity_field_is_made_divergence_free():
+    """A periodic box of random velocities: the divergence-free solve converges,
+    and its reported error is the state's own (recomputed in NumPy)."""
+    d = scene(time_step=0.001)
+    d["gravity"] = [0.0, 0.0]
+    d["domain"] = {"min": [0.0, 0.0], "max": [0.4, 0.4], "periodic": [True, True]}
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.4, 0.4]}]
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    rng = np.random.default_rng(1)
+    sim.set_state(sim.positions, rng.normal(scale=0.1, size=(sim.n_particles, 2)))
+    m, h = sim.particle_mass, sim.smoothing_length
+    _, _, mg = density_and_factor(sim.positions, m, kernel(h), periodic=0.4)
+    before = np.maximum(0.001 * rate(sim.velocities, mg), 0).mean() / RHO0
+    sim.step()
+    st = sim.stats()
+    _, _, mg = density_and_factor(sim.positions, m, kernel(h), periodic=0.4)
+    after = np.maximum(0.001 * rate(sim.velocities, mg), 0).mean() / RHO0
+    assert st["solve_unconverged"] == 0
+    assert after == pytest.approx(st["solve_divergence_error"], rel=1e-6)
+    assert after <= 1e-3 < before
+
+
+def test_a_compressed_block_relaxes_to_the_density_tolerance():
+    """(The solve undoes the compression within a step or two, faster than the
+    guard's budget allows at the default speed scale: no state equation stores
+    the energy; the scene's speed of sound is dfsph's speed scale.)"""
+    d = scene(time_step=0.001)
+    d["gravity"] = [0.0, 0.0]
+    d["fluid"]["speed_of_sound"] = 500.0
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    x = sim.positions
+    sim.set_state(x.mean(axis=0) + 0.95 * (x - x.mean(axis=0)), np.zeros_like(x))
+    assert sim.densities.max() > 1.08 * RHO0
+    sim.step(20)
+    st = sim.stats()
+    assert st["solve_density_error"] <= 1e-4 and st["solve_unconverged"] == 0
+    assert sim.densities.max() < 1.01 * RHO0
+    assert np.isfinite(sim.velocities).all()
+
+
+def test_a_tank_holds_its_water_without_crossing_a_wall():
+    sim = sphfluid.Simulation(sphfluid.load_scene(tank()), threads=2)
+    n = sim.n_particles
+    sim.advance_to(0.5)
+    x = sim.positions
+    assert sim.n_particles == n and sim.wall_crossings == 0
+    assert (x[:, 0] > 0).all() and (x[:, 0] < 0.4).all() and (x[:, 1] > 0).all()
+    assert sim.densities.max() < 1.02 * RHO0
+    assert sim.stats()["solve_unconverged"] <= 10  # the start from zero pressure
+
+
+def test_one_and_two_threads_are_identical():
+    runs = []
+    for threads in (1, 2):
+        sim = sphfluid.Simulation(sphfluid.load_scene(tank()), threads=threads)
+        sim.step(40)
+        runs.append((sim.positions.copy(), sim.velocities.copy(), sim.pressures.copy(),
+                     sim.stats()["solve_iterations"]))
+    for a, b in zip(*runs):
+        assert np.array_equal(a, b)
+
+
+def test_a_solve_stopped_at_its_maximum_is_reported_and_stays_finite():
+    sim = sphfluid.Simulation(sphfluid.load_scene(
+        tank(min_iterations=0, max_iterations=1, density_tolerance=1e-12)), threads=2)
+    sim.step(10)
+    st = sim.stats()
+    assert st["solve_unconverged"] >= 10 and st["solve_density_iterations"] == 1
+    assert np.isfinite(sim.velocities).all() and np.isfinite(sim.pressures).all()
+
+
+def test_the_scene_round_trips_with_its_solver_keys():
+    d = tank(density_tolerance=0.001, max_iterations=50, max_time_step=0.002)
+    s = sphfluid.load_scene(d)
+    assert s.pressure_solve.density_tolerance == 0.001
+    assert sphfluid.load_scene(s.to_dict()) == s
+    assert s.to_dict()["solver"]["max_iterations"] == 50
+
+
+@pytest.mark.parametrize("change, where, words", [
+    (lambda d: d["solver"].update(density_tolerance=0), "solver.density_tolerance", ""),
+    (lambda d: d["solver"].update(divergence_tolerance=-1), "solver.divergence_tolerance", ""),
+    (lambda d: d["solver"].update(min_iterations=5, max_iterations=3),
+     "solver.max_iterations", "min_iterations"),
+    (lambda d: d["solver"].update(method="wcsph", min_iterations=3), "solver.min_iterations",
+     "dfsph method only"),
+    (lambda d: d["solver"].update(time_step=0.001, max_time_step=0.01),
+     "solver.max_time_step", "auto"),
+    (lambda d: d["walls"].__setitem__(0, {**d["walls"][0], "motion": {
+        "translation": [[0, 0, 0], [1, 0.01, 0]]}}), "walls[0].motion", "dfsph"),
+    (lambda d: d.update(outlets=[{"at": [0.35, 0.1], "direction": [1, 0], "width": 0.1}]),
+     "outlets", "dfsph"),
+])
+def test_bad_solver_keys_are_refused_by_json_path(change, where, words):
+    d = copy.deepcopy(tank())
+    change(d)
+    with pytest.raises(SceneError) as info:
+        sphfluid.load_scene(d)
+    text = str(info.value)
+    assert where in text and words in text
+
+
+def test_a_checkpoint_continues_bit_for_bit(tmp_path):
+    """The solves' warm starts are state: a run resumed from a checkpoint takes
+    the same steps."""
+    sim = sphfluid.Simulation(sphfluid.load_scene(tank()), threads=2)
+    sim.step(15)
+    sim.save_state(tmp_path / "c.npz")
+    sim.step(15)
+    again = sphfluid.Simulation.from_checkpoint(tmp_path / "c.npz", threads=2)
+    again.step(15)
+    assert np.array_equal(sim.positions, again.positions)
+    assert np.array_equal(sim.velocities, again.velocities)
+
+
+def test_the_run_summary_and_the_viewer_report_the_solves(tmp_path, capsys, monkeypatch):
+    import json
+
+    from sphfluid.cli import main
+
+    d = tank()
+    d["duration"] = 0.02
+    (tmp_path / "t.json").write_text(json.dumps(d))
+    assert main(["run", str(tmp_path / "t.json"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "pressure solves" in out and "stopped at max_iterations" in out
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pygame = pytest.importorskip("pygame")
+    from sphfluid.viewer import _Window
+
+    pygame.init()
+    try:
+        w = _Window(pygame, sphfluid.Simulation(sphfluid.load_scene(d)), (400, 300), "speed", 2)
+        w.sim.step(2)
+        st = w.sim.stats()
+        assert (f"dfsph ({st['solve_density_iterations']}+"
+                f"{st['solve_divergence_iterations']} iterations)") in w.status(30.0)
+    finally:
+        pygame.quit()
