@@ -63,12 +63,14 @@ Real Context::choose_dt(Real dt_cap) {
   // A step shortened to land on an end time keeps the label of the condition
   // that limits the flow itself.
   last_limit_ = limit;
+  free_dt_ = dt;
   return dt_cap > 0 ? std::min(dt, dt_cap) : dt;
 }
 
 Real Context::step_size(Real dt, Real dt_cap) {
   if (dt > 0) {
     last_limit_ = TimeStepLimit::kFixed;
+    free_dt_ = dt;
   } else {
     dt = choose_dt(dt_cap);
   }

@@ -92,6 +92,9 @@ class Context {
   // flow CFL, force and viscous conditions allow from the accelerations just
   // computed (at most dt_cap when > 0); recorded as last_dt().
   Real step_size(Real dt, Real dt_cap);
+  // The last step's size before a cap shortened it to land on an end time
+  // (the fixed dt, or the conditions' step).
+  Real free_dt() const { return free_dt_; }
 
   // v += kick a; x += dt v (semi-implicit Euler for kick = dt; the first half
   // of kick-drift-kick for kick = dt/2), then the wall collision of the same
@@ -202,6 +205,7 @@ class Context {
   int threads_ = 1;
   Real time_ = 0;
   Real last_dt_ = 0;
+  Real free_dt_ = 0;
   TimeStepLimit last_limit_ = TimeStepLimit::kFixed;
   std::int64_t step_count_ = 0;
   std::int64_t removed_ = 0;

@@ -66,15 +66,25 @@ def rate(u, mg):
     return (uij * mg).sum(axis=(1, 2))
 
 
+def pressure_acceleration(k, mg):
+    """D5 (no walls): -sum_j (k_i + k_j) m grad W_ij."""
+    return -((k[:, None] + k[None, :])[:, :, None] * mg).sum(axis=1)
+
+
 def correct(u, e, f, mg, dt):
-    """One Jacobi correction from k = 0 (D6 with omega = 0.5, D5)."""
-    dk = np.maximum(0.5 * e * f / dt**2, 0.0)
-    acc = -((dk[:, None] + dk[None, :])[:, :, None] * mg).sum(axis=1)
-    return u + dt * acc
+    """One conjugate-gradient product from k = 0 (D6): the direction z = f e / dt^2
+    on the particles with e > 0, its step alpha = (e . z) / (z . M z) with
+    M z = -dt rate(dt a_p(z)), the values projected on k >= 0 and applied."""
+    active = np.isfinite(e) & (e > 0)
+    r = np.where(active, e, 0.0)
+    z = r * f / dt**2
+    mz = np.where(active, -dt * rate(dt * pressure_acceleration(z, mg), mg), 0.0)
+    k = np.maximum((r * z).sum() / (z * mz).sum() * z, 0.0)
+    return u + dt * pressure_acceleration(k, mg)
 
 
 def test_one_step_matches_a_brute_force_evaluation():
-    """One correction in each solve (min = max = 1 iteration), on a compressed,
+    """One product in each solve (min = max = 1 iteration), on a compressed,
     jittered block with converging velocities: positions and velocities after the
     step match NumPy's D1-D6 to round-off."""
     d = scene(time_step=0.002, min_iterations=1, max_iterations=1)
@@ -146,15 +156,55 @@ def test_a_compressed_block_relaxes_to_the_density_tolerance():
     assert np.isfinite(sim.velocities).all()
 
 
-def test_a_tank_holds_its_water_without_crossing_a_wall():
+def test_a_tank_holds_its_water_near_hydrostatic_without_crossing_a_wall():
+    """From the lattice at zero pressure, every solve converging: after 0.5 s
+    (measured: pressure 7.7 % of rho0 g H from rho0 g (H - y) RMS, the fastest
+    particle at 0.052 sqrt(gH); the bounds leave room for other builds' round-off
+    in this chaotic churn, docs/method-dfsph.md "Not yet")."""
     sim = sphfluid.Simulation(sphfluid.load_scene(tank()), threads=2)
-    n = sim.n_particles
+    n, depth = sim.n_particles, 0.3
     sim.advance_to(0.5)
-    x = sim.positions
+    x, p = sim.positions, sim.pressures
     assert sim.n_particles == n and sim.wall_crossings == 0
     assert (x[:, 0] > 0).all() and (x[:, 0] < 0.4).all() and (x[:, 1] > 0).all()
-    assert sim.densities.max() < 1.02 * RHO0
-    assert sim.stats()["solve_unconverged"] <= 10  # the start from zero pressure
+    inner = (x[:, 1] < 0.8 * depth) & (x[:, 0] > 0.04) & (x[:, 0] < 0.36)
+    scale = RHO0 * 9.81 * depth
+    error = np.sqrt(np.mean((p[inner] - RHO0 * 9.81 * (depth - x[inner, 1])) ** 2)) / scale
+    assert error < 0.12
+    assert np.linalg.norm(sim.velocities, axis=1).max() < 0.1 * np.sqrt(9.81 * depth)
+    assert sim.densities.max() < 1.005 * RHO0
+    assert sim.stats()["solve_unconverged"] == 0
+
+
+def test_a_box_at_rest_on_the_lattice_stays_at_rest():
+    d = scene(time_step=0.002)
+    d["gravity"] = [0.0, 0.0]
+    d["domain"] = {"min": [0.0, 0.0], "max": [0.4, 0.4], "periodic": [True, True]}
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.4, 0.4]}]
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    x = sim.positions.copy()
+    sim.advance_to(0.4)
+    assert np.abs(sim.velocities).max() < 1e-12 and np.allclose(sim.positions, x, atol=1e-12)
+
+
+@pytest.mark.xfail(strict=True, reason="the constant-density solve turns the summed "
+                   "density's noise on a disordered set into velocity, which nothing "
+                   "takes out: docs/method-dfsph.md, Not yet")
+def test_a_periodic_box_keeps_its_kinetic_energy():
+    """Random velocities in a periodic box with no viscosity: the solves may take
+    energy, not give it (measured: the speeds grew from 0.01 to 0.06 m/s RMS in
+    0.2 s, 0.096 by 6 s)."""
+    d = scene(time_step=0.002)
+    d["gravity"] = [0.0, 0.0]
+    d["domain"] = {"min": [0.0, 0.0], "max": [0.4, 0.4], "periodic": [True, True]}
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.4, 0.4]}]
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    rng = np.random.default_rng(1)
+    sim.set_state(sim.positions, rng.normal(scale=0.01, size=(sim.n_particles, 2)))
+    sim.step(5)
+    start = sim.stats()["kinetic_energy"]
+    sim.advance_to(0.4)
+    assert sim.stats()["kinetic_energy"] <= 1.02 * start
 
 
 def test_one_and_two_threads_are_identical():

@@ -53,7 +53,8 @@ void DfsphMethod::particles_added(Index first) {
 
 std::size_t DfsphMethod::bytes() const {
   return (factor_.capacity() + e_.capacity() + dk_.capacity() + rho0s_.capacity() +
-          inv_rho_.capacity()) * sizeof(Real) +
+          inv_rho_.capacity()) * sizeof(Real) + cg_.capacity() * sizeof(Cg) +
+         du_.capacity() * sizeof(Vec2) +
          (first_.capacity() + pair_j_.capacity()) * sizeof(Index) +
          (wall_g_.capacity() + a_np_.capacity() + u_.capacity() + pair_mg_.capacity()) *
              sizeof(Vec2) +
@@ -90,14 +91,14 @@ void DfsphMethod::step_impl(Real dt, Real dt_cap) {
   std::copy(a_np_.begin(), a_np_.end(), ps.a.data());  // a retried step starts over
   dt = ctx_.step_size(dt, dt_cap);
   ctx_.timer.start();
-  density_solve<F>(dt);
+  density_solve(dt);
   ctx_.timer.mark(kSolve);
   ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, dt);
   ctx_.timer.mark(kIntegrate);
   ctx_.leave_domain();
   ctx_.timer.mark(kDomain);
   neighbours<F>();
-  divergence_solve<F>(dt);
+  divergence_solve(dt);
   ctx_.timer.mark(kSolve);
   non_pressure<F>();
   ctx_.advance(dt);
@@ -107,6 +108,7 @@ void DfsphMethod::step_impl(Real dt, Real dt_cap) {
 template <unsigned F>
 void DfsphMethod::neighbours() {
   ParticleSet& ps = ctx_.ps;
+  ctx_.timer.start();
   ctx_.search.lists<(F & kPeriodic) != 0, false>(ps, P_.h, P_.mass, ctx_.team(), ctx_.box,
                                                   weight_, ctx_.timer);
   const Index n = ps.size();
@@ -205,7 +207,6 @@ void DfsphMethod::non_pressure() {
   ctx_.timer.mark(kForces);
 }
 
-template <unsigned F>
 void DfsphMethod::density_solve(Real dt) {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
@@ -213,7 +214,13 @@ void DfsphMethod::density_solve(Real dt) {
   Vec2* a = ps.a.data();
   u_.resize(n);
   for (Index i = 0; i < n; ++i) u_[i] = v[i] + dt * a[i];
-  const Solve s = solve<F>(u_.data(), kappa_.data(), ps.rho.data(), dt, P_.density_tolerance);
+  // The density's present error is undone over the flow's own step: a step
+  // shortened to land on an end time takes its share of it (undone within a
+  // tiny step, it would take a tiny step's huge impulse).
+  const Real share = std::min(dt / ctx_.free_dt(), Real(1));
+  rho0s_.resize(n);
+  for (Index i = 0; i < n; ++i) rho0s_[i] = P_.rho0 + share * (ps.rho[i] - P_.rho0);
+  const Solve s = solve(u_.data(), kappa_.data(), rho0s_.data(), dt, P_.density_tolerance);
   const Real inv_dt = 1 / dt;
   for (Index i = 0; i < n; ++i) a[i] = (u_[i] - v[i]) * inv_dt;
   stats_.density_iterations = s.iterations;
@@ -222,7 +229,6 @@ void DfsphMethod::density_solve(Real dt) {
   if (!s.converged) ++stats_.unconverged;
 }
 
-template <unsigned F>
 void DfsphMethod::divergence_solve(Real dt) {
   ParticleSet& ps = ctx_.ps;
   rho0s_.assign(ps.size(), P_.rho0);
@@ -231,18 +237,20 @@ void DfsphMethod::divergence_solve(Real dt) {
   // divergence of particles with few neighbours likewise).
   for (Index i = 0; i < ps.size(); ++i)
     if (ps.rho[i] < dfsph::kDeficient * P_.rho0) rho0s_[i] = -std::numeric_limits<Real>::infinity();
-  const Solve s = solve<F>(ps.v.data(), kappa_v_.data(), rho0s_.data(), dt,
-                           P_.divergence_tolerance);
+  const Solve s = solve(ps.v.data(), kappa_v_.data(), rho0s_.data(), dt,
+                        P_.divergence_tolerance);
   stats_.divergence_iterations = s.iterations;
   stats_.divergence_error = s.error;
   stats_.iterations += s.iterations;
   if (!s.converged) ++stats_.unconverged;
 }
 
-// Jacobi on the pressure values, warm-started: the last values act first,
-// then each iteration measures the errors and corrects by D6, from at least
-// min_iterations to at most max_iterations corrections.
-template <unsigned F>
+// The solve (D6): half the last values act first (the warm start), then
+// conjugate gradients on the particles that ask for pressure (an error above
+// 0, or a value above 0), preconditioned by the stiffness factors, until the
+// predicted mean error is within the tolerance; the values are then
+// projected on k >= 0 and applied, and the errors measured again (another
+// pass if the projection left them above it). Iterations: matrix products.
 DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol) {
   Solve s;
   const Index n = ctx_.size();
@@ -250,60 +258,111 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
     s.converged = true;
     return s;
   }
-  e_.resize(n);
+  cg_.resize(n);
+  du_.resize(n);
   dk_.resize(n);
+  e_.resize(n);
   for (Index i = 0; i < n; ++i) {
-    dk_[i] = k[i];
+    dk_[i] = dfsph::kWarmStart * k[i];
     k[i] = 0;
   }
-  apply<F>(u, k, dt);
-  for (int it = 0;; ++it) {
-    s.iterations = it;
-    s.error = errors<F>(u, k, base, dt) / (static_cast<Real>(n) * P_.rho0);
-    if (!std::isfinite(s.error)) return s;  // the guard names the particle
-    if (it >= P_.min_iterations && s.error <= tol) {
+  apply(u, k, dt);
+  const Real norm = 1 / (static_cast<Real>(n) * P_.rho0);
+  s.error = errors(u, base, dt) * norm;
+  while (std::isfinite(s.error)) {
+    if (s.iterations >= P_.min_iterations && s.error <= tol) {
       s.converged = true;
-      return s;
+      break;
     }
-    if (it >= P_.max_iterations) return s;
-    apply<F>(u, k, dt);
+    if (s.iterations >= P_.max_iterations) break;
+    const int before = s.iterations;
+    conjugate_gradients(k, dt, tol / norm, s.iterations);
+    if (s.iterations == before) {  // nothing asks for pressure (or can be given it)
+      s.converged = s.error <= tol;
+      break;
+    }
+    for (Index i = 0; i < n; ++i) dk_[i] = std::max(k[i] + cg_[i].x, Real(0)) - k[i];
+    apply(u, k, dt);
+    s.error = errors(u, base, dt) * norm;
+  }
+  return s;
+}
+
+// D6's conjugate gradients from x = 0 for M x = e on the active particles,
+// M x = -dt rate(dt a_p(x)) (D4 of D5: the density change the values x
+// make over the step, with the sign that makes M positive semi-definite:
+// M = dt^2 R R^T for the rate's matrix R). Stops when the predicted errors'
+// positive sum is at most `tol` (after at least min_iterations products in
+// all), at the most iterations, or when a direction brings nothing.
+void DfsphMethod::conjugate_gradients(const Real* k, Real dt, Real tol, int& iterations) {
+  const Index n = ctx_.size();
+  const Real inv_dt2 = 1 / (dt * dt);
+  Real rz = 0;
+  for (Index i = 0; i < n; ++i) {
+    Cg& c = cg_[i];
+    c.active = std::isfinite(e_[i]) && (e_[i] > 0 || k[i] > 0);
+    c.x = 0;
+    c.r = c.active ? e_[i] : 0;
+    c.p = c.r * factor_[i] * inv_dt2;  // z = the preconditioned residual
+    rz += c.r * c.p;
+  }
+  while (iterations < P_.max_iterations && rz > 0) {
+    product(dt);
+    ++iterations;
+    Real pmp = 0;
+    for (const Cg& c : cg_) pmp += c.p * c.mp;
+    if (!(pmp > 0)) return;
+    const Real alpha = rz / pmp;
+    Real err = 0, rz_next = 0;
+    for (Index i = 0; i < n; ++i) {
+      Cg& c = cg_[i];
+      c.x += alpha * c.p;
+      c.r -= alpha * c.mp;
+      err += std::max(c.r, Real(0));
+      rz_next += c.r * c.r * factor_[i] * inv_dt2;
+    }
+    if (iterations >= P_.min_iterations && err <= tol) return;
+    const Real beta = rz_next / rz;
+    rz = rz_next;
+    for (Index i = 0; i < n; ++i) cg_[i].p = cg_[i].r * factor_[i] * inv_dt2 + beta * cg_[i].p;
   }
 }
 
-// D4 into e = base + dt rate - rho0, and D6's dk; the sum of max(e, 0), in
-// index order.
-template <unsigned F>
-Real DfsphMethod::errors(const Vec2* u, const Real* k, const Real* base, Real dt) {
-  const Real rho0 = P_.rho0, inv_dt2 = 1 / (dt * dt);
+// mp = M p (conjugate_gradients): the velocity change du = dt a_p(p) (D5),
+// then -dt times its rate (D4) on the active particles.
+void DfsphMethod::product(Real dt) {
   const Index n = ctx_.size();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) {
-    const Vec2 ui = u[i];
-    Real rate = ui.dot(wall_g_[i]);
-    for (Index q = first_[i]; q < first_[i + 1]; ++q)
-      rate += dfsph::rate_pair(ui - u[pair_j_[q]], pair_mg_[q]);
-    const Real e = base[i] + dt * rate - rho0;
-    e_[i] = e;
-    dk_[i] = dfsph::pressure_change(k[i], e, factor_[i], inv_dt2);
-  }
+  for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [&](Index j) {
+    return cg_[j].p;
+  });
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i)
+    cg_[i].mp = cg_[i].active ? -dt * rate(i, du_.data()) : Real(0);
+}
+
+// e = base + dt rate(u) - rho0 (D4); the sum of max(e, 0), in index order.
+Real DfsphMethod::errors(const Vec2* u, const Real* base, Real dt) {
+  const Real rho0 = P_.rho0;
+  const Index n = ctx_.size();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) e_[i] = base[i] + dt * rate(i, u) - rho0;
   Real sum = 0;
   for (const Real e : e_) sum += std::max(e, Real(0));
   return sum;
 }
 
-// D5 with the changes dk: u += dt a_p(dk), k += dk.
-template <unsigned F>
+// u += dt a_p(dk) (D5), k += dk.
 void DfsphMethod::apply(Vec2* u, Real* k, Real dt) {
-  const Real* dk = dk_.data();
   const Index n = ctx_.size();
+  const Real* dk = dk_.data();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [&](Index j) {
+    return dk[j];
+  });
   for (Index i = 0; i < n; ++i) {
-    const Real dki = dk[i];
-    Vec2 acc = -dki * wall_g_[i];
-    for (Index q = first_[i]; q < first_[i + 1]; ++q)
-      acc += dfsph::pressure_pair(dki, dk[pair_j_[q]], pair_mg_[q]);
-    u[i] += dt * acc;
-    k[i] += dki;
+    u[i] += du_[i];
+    k[i] += dk[i];
   }
 }
 

@@ -6,9 +6,10 @@
 // with the summation density (D1), the walls' ghosts and shares (W7, D2), the
 // stiffness factors (D3), the divergence-free solve on the velocities (D6),
 // and the non-pressure accelerations of the next step (viscosity W6/W9, the
-// tension W10-W12, gravity). Both solves are Jacobi iterations on per-particle
-// pressure values, warm-started from the previous step's, over full
-// neighbour lists: each sum in one order whatever the thread count.
+// tension W10-W12, gravity). Both solves are conjugate gradients on
+// per-particle pressure values preconditioned by the stiffness factors,
+// warm-started from the previous step's, over a pair table made with the
+// search: each sum in one order whatever the thread count.
 #pragma once
 
 #include <cstdint>
@@ -65,10 +66,10 @@ class DfsphMethod final : public SphMethod {
   // density they make over dt is within the tolerance of rho0; a then holds
   // the total acceleration. The divergence-free solve: v corrected until its
   // rate of density change is within the tolerance.
-  template <unsigned F> void density_solve(Real dt);
-  template <unsigned F> void divergence_solve(Real dt);
-  // One Jacobi solve on the velocities u (n): the pressure values k (a field,
-  // warm start in, result out) with per-particle error e_i = base_i + dt
+  void density_solve(Real dt);
+  void divergence_solve(Real dt);
+  // One solve on the velocities u (n): the pressure values k (a field, warm
+  // start in, result out) with per-particle error e_i = base_i + dt
   // rho_rate_i(u) - rho0 (base: rho for the density, rho0 for the
   // divergence), until mean(max(e, 0)) <= tol; iterations and the last mean.
   struct Solve {
@@ -76,13 +77,29 @@ class DfsphMethod final : public SphMethod {
     Real error = 0;
     bool converged = false;
   };
-  template <unsigned F> Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
-  // The rate of density change (D4) of every particle from velocities u, into
-  // e as base + dt rate - rho0; and the pressure changes dk; returns the sum
-  // of max(e, 0).
-  template <unsigned F> Real errors(const Vec2* u, const Real* k, const Real* base, Real dt);
-  // u += dt a_p(dk) (D5) and k += dk.
-  template <unsigned F> void apply(Vec2* u, Real* k, Real dt);
+  Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
+  void conjugate_gradients(const Real* k, Real dt, Real tol, int& iterations);
+  void product(Real dt);
+  // e from velocities u (D4), the sum of max(e, 0); u += dt a_p(dk_), k += dk_.
+  Real errors(const Vec2* u, const Real* base, Real dt);
+  void apply(Vec2* u, Real* k, Real dt);
+  // D5 and D4 of particle i over the pair table: the pressure acceleration
+  // of the values value(j) (and value(i)), and the rate of velocities u.
+  template <class Value>
+  Vec2 pressure_acceleration(Index i, Value value) const {
+    const Real vi = value(i);
+    Vec2 acc = -vi * wall_g_[i];
+    for (Index q = first_[i]; q < first_[i + 1]; ++q)
+      acc += dfsph::pressure_pair(vi, value(pair_j_[q]), pair_mg_[q]);
+    return acc;
+  }
+  Real rate(Index i, const Vec2* u) const {
+    const Vec2 ui = u[i];
+    Real r = ui.dot(wall_g_[i]);
+    for (Index q = first_[i]; q < first_[i + 1]; ++q)
+      r += dfsph::rate_pair(ui - u[pair_j_[q]], pair_mg_[q]);
+    return r;
+  }
   // Each particle over its full neighbour list (the viscosity), from an accumulator of value
   // init: pair(acc, i, j, r_ij, r^2) for each neighbour, then end(i, acc);
   // across periodic seams by minimum images.
@@ -113,6 +130,14 @@ class DfsphMethod final : public SphMethod {
   std::vector<Vec2> a_np_;    // the non-pressure accelerations of the last evaluation
   std::vector<Vec2> u_;       // the density solve's predicted velocities
   std::vector<Real> e_, dk_;  // per particle: the error and the pressure change
+  // The conjugate gradients' vectors, per particle: whether it takes part,
+  // the solution, the residual, the direction and M times it.
+  struct Cg {
+    bool active;
+    Real x, r, p, mp;
+  };
+  std::vector<Cg> cg_;
+  std::vector<Vec2> du_;  // a velocity change (D5 times dt)
   std::vector<Real> rho0s_;   // rho0 per particle (the divergence solve's base)
   std::vector<Real> inv_rho_;  // 1 / rho (the viscosity)
   SolveStats stats_;
