@@ -294,7 +294,7 @@ def _add_stress(sub) -> None:
 
 
 def _add_validate(sub) -> None:
-    from .validation.cases import CASES, VARIANTS
+    from .validation.cases import CASES, CHOICES
 
     v = sub.add_parser("validate", help="accuracy against known answers, with run times",
                        description="Run the validation cases (hydrostatic tank, dam break vs "
@@ -312,9 +312,9 @@ def _add_validate(sub) -> None:
                        help="the real measurement (finer resolutions, minutes)")
     v.add_argument("--case", action="append", choices=list(CASES),
                    help="run only this case (repeatable)")
-    v.add_argument("--method", choices=VARIANTS,
+    v.add_argument("--method", choices=CHOICES,
                    help="run only this method (seed-float: the seed with its pair forces in "
-                        "float, solver.pair_precision)")
+                        "float, solver.pair_precision; dfsph runs on request only)")
     v.add_argument("--threads", type=_count,
                    help="OpenMP threads per run (default: all cores; 1 on Dask)")
     _matrix_options(v)

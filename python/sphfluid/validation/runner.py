@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import engine
 from ..bench import machine
-from .cases import CASES, VARIANTS, Result
+from .cases import CASES, CHOICES, VARIANTS, Result
 from .peers import BUSY_SHARE, busy_lines, verdict
 
 # Quick-mode bounds on each run's primary error, per (case, method, n): today's
@@ -91,7 +91,7 @@ QUICK_BOUNDS.update({(c, "seed-float", n): b for (c, m, n), b in list(QUICK_BOUN
                      if m == "seed" and CASES[c].applies("seed-float")})
 
 # one colour per variant in every plot; the peers' schemes take the next ones, in order
-COLOURS = {"seed": "C0", "wcsph": "C1", "seed-float": "C2"}
+COLOURS = {"seed": "C0", "wcsph": "C1", "seed-float": "C2", "dfsph": "C9"}
 PEER_COLOURS = ("C3", "C4", "C5", "C6", "C7", "C8", "C9")
 
 
@@ -197,7 +197,7 @@ def case_table(results: list[Result], *, bounds: bool = False) -> str:
 def error_time_series(results: list[Result]) -> list[tuple[str, str, str, list[Result]]]:
     """The lines of the error-against-wall-time plot: (label, style, colour, its
     completed runs) for each of our methods, then each peer scheme (dashed)."""
-    styles = [(m, "o-", COLOURS[m]) for m in VARIANTS]
+    styles = [(m, "o-", COLOURS[m]) for m in CHOICES]
     styles += [(label, "s--", PEER_COLOURS[k % len(PEER_COLOURS)])
                for k, label in enumerate(peer_labels(results))]
     series = []
@@ -263,7 +263,7 @@ def _profile(name: str, results: list[Result], ax) -> None:
     from . import reference as ref
 
     case = CASES[name]
-    best = {m: r for m in VARIANTS if (r := _finest(results, m)) is not None}
+    best = {m: r for m in CHOICES if (r := _finest(results, m)) is not None}
     if name == "dam_break":
         mm = ref.martin_moyce("front")
         ax.plot(mm.x, mm.y, "ks", label="Martin & Moyce, Table 2")
@@ -435,11 +435,13 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
     for name in names:
         case = CASES[name]
         mine = [r for r in results if r.case == name]
+        if not mine:  # no method asked for runs it (dfsph: moving walls, inlets)
+            continue
         parts += [f"### {case.title}", "", " ".join((case.__doc__ or "").split()), "",
                   f"Error: {case.error_name}.", "",
                   case_table(mine, bounds=mode == "quick"), ""]
         orders = []
-        for method in [*VARIANTS, *peer_labels(mine)]:
+        for method in [*CHOICES, *peer_labels(mine)]:
             p = convergence_order([r for r in mine if r.method == method])
             if math.isfinite(p):
                 orders.append(f"{method} {p:.2f}")
