@@ -1,6 +1,6 @@
 // The dfsph method's step (docs/method-dfsph.md) as ordered phases, each one
-// parallel loop over full neighbour lists whose sums do not depend on the
-// thread count: the constant-density solve, semi-implicit Euler (the kick and
+// parallel loop (the solves over the pair table, the viscosity over full
+// neighbour lists) whose sums do not depend on the thread count: the constant-density solve, semi-implicit Euler (the kick and
 // the drift with the wall collision), then at the new positions the summation
 // density (D1) with the walls (W7, D2), the stiffness factors (D3), the
 // divergence-free solve, and the non-pressure accelerations.
