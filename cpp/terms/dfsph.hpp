@@ -1,4 +1,4 @@
-// The dfsph method's equations (docs/method-dfsph.md, eqs. D1-D6), each
+// The dfsph method's equations (docs/method-dfsph.md, eqs. D1-D7), each
 // written once: the walls' share of sum_j m grad W_ij (D2), the stiffness
 // factor (D3), the rate of density change (D4) and the pressure acceleration
 // of a solve's pressure values (D5), per pair and per particle. The density
@@ -13,6 +13,7 @@
 #include "core/types.hpp"
 #include "terms/wall_tables.hpp"
 #include "terms/wcsph.hpp"
+#include "terms/wendland.hpp"
 
 namespace sphfluid::dfsph {
 
@@ -90,4 +91,37 @@ constexpr Real kWarmStart = 0.5;
 // neighbours); without it, spray was shot off at hundreds of m/s.
 constexpr Real kDeficient = 0.8;
 
+// D7: the density the constant-density solve aims at. With a free surface
+// rho0. In a confined fluid (periodic, or filling its walls) the particles
+// cannot change the area they fill, and the summed density (D1) of a
+// disordered set lies above the lattice's on average (the lattice's
+// neighbours sum W's Laplacian to a positive value, balancing its peak at
+// r = 0, so that random offsets add to each sum): a mean excess that no
+// motion of an incompressible fluid removes. Aimed at rho0, the solve chased
+// it every step and turned it into velocity (a periodic box's random
+// velocities grew from 0.01 to 0.06 m/s RMS in 0.2 s); it aims at the
+// particles' mean density instead when that is higher (the pressure
+// equation's compatibility condition in a closed domain).
+inline Real reference_density(const Real* rho, Index n, Real rho0, bool free_surface) {
+  if (free_surface || n == 0) return rho0;
+  Real sum = 0;
+  for (Index i = 0; i < n; ++i) sum += rho[i];
+  return std::max(rho0, sum / static_cast<Real>(n));
+}
+// A free surface is there when some particle's |s_i| (D3's sum with the
+// walls' share, about 0 inside the fluid and beside a wall) exceeds half
+// that of the outer row of a flat free surface on the lattice of spacing dx
+// (particle mass m): unlike a density threshold, this holds for a
+// compressed fluid too. Returns the threshold's square.
+inline Real free_surface_gradient2(const Wendland& W, Real dx, Real m) {
+  const int reach = static_cast<int>(std::ceil(W.h / dx));
+  Real gy = 0;  // the row at y = 0 with the rows below: the sum points up
+  for (int k = -reach; k < 0; ++k)
+    for (int i = -reach; i <= reach; ++i) {
+      const Real x = dx * i, y = dx * k, r = std::hypot(x, y);
+      gy -= m * W.gradient_factor(r) * y;  // grad_i W_ij with r_ij = -(x, y)
+    }
+  const Real half = Real(0.5) * gy;
+  return half * half;
+}
 }  // namespace sphfluid::dfsph

@@ -38,6 +38,8 @@ DfsphMethod::DfsphMethod(Context& ctx)
     : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
   walls_.build(P_.spacing, P_.mass / P_.rho0);
   surface_ = SurfaceEnergy::summed(P_, ctx.box);
+  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  surface_g2_ = dfsph::free_surface_gradient2(kernel_, dx, P_.mass);
 }
 
 void DfsphMethod::select(unsigned features) {
@@ -104,7 +106,7 @@ void DfsphMethod::step_impl(Real dt, Real dt_cap) {
   ctx_.advance(dt);
 }
 
-// D1 (W2 with the walls' W7), D2 and D3.
+// D1 (W2 with the walls' W7), D2 and D3; whether a free surface is there (D7).
 template <unsigned F>
 void DfsphMethod::neighbours() {
   ParticleSet& ps = ctx_.ps;
@@ -140,7 +142,8 @@ void DfsphMethod::neighbours() {
   const Real m = P_.mass;
   const Vec2* x = ps.x.data();
   const PeriodicBox& box = ctx_.box;
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  Real s2 = 0;  // the largest |s_i|^2 (D7's free surface)
+#pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(max : s2)
   for (Index i = 0; i < n; ++i) {
     Vec2 sum = Vec2::Zero();
     Real q = 0;
@@ -158,8 +161,11 @@ void DfsphMethod::neighbours() {
       sum += mg;
       q += mg.squaredNorm();
     }
-    factor_[i] = dfsph::stiffness_factor(sum + wall_g_[i], q);
+    sum += wall_g_[i];
+    factor_[i] = dfsph::stiffness_factor(sum, q);
+    s2 = std::max(s2, sum.squaredNorm());
   }
+  free_surface_ = s2 > surface_g2_;
   ctx_.timer.mark(kDensity);
 }
 
@@ -214,12 +220,14 @@ void DfsphMethod::density_solve(Real dt) {
   Vec2* a = ps.a.data();
   u_.resize(n);
   for (Index i = 0; i < n; ++i) u_[i] = v[i] + dt * a[i];
-  // The density's present error is undone over the flow's own step: a step
-  // shortened to land on an end time takes its share of it (undone within a
-  // tiny step, it would take a tiny step's huge impulse).
+  // The density's present error (from the reference, D7) is undone over the
+  // flow's own step: a step shortened to land on an end time takes its share
+  // of it (undone within a tiny step, it would take a tiny step's huge
+  // impulse).
   const Real share = std::min(dt / ctx_.free_dt(), Real(1));
+  const Real ref = dfsph::reference_density(ps.rho.data(), n, P_.rho0, free_surface_);
   rho0s_.resize(n);
-  for (Index i = 0; i < n; ++i) rho0s_[i] = P_.rho0 + share * (ps.rho[i] - P_.rho0);
+  for (Index i = 0; i < n; ++i) rho0s_[i] = P_.rho0 + share * (ps.rho[i] - ref);
   const Solve s = solve(u_.data(), kappa_.data(), rho0s_.data(), dt, P_.density_tolerance);
   const Real inv_dt = 1 / dt;
   for (Index i = 0; i < n; ++i) a[i] = (u_[i] - v[i]) * inv_dt;

@@ -126,6 +126,8 @@ class DfsphMethod final : public SphMethod {
   std::vector<Index> first_, pair_j_;
   std::vector<Vec2> pair_mg_;
   std::vector<Real> factor_;  // D3
+  Real surface_g2_;           // D7's threshold of |s_i|^2 for a free surface
+  bool free_surface_ = true;  // some particle is at a free surface (D7)
   std::vector<Vec2> wall_g_;  // D2 (zero without walls)
   std::vector<Vec2> a_np_;    // the non-pressure accelerations of the last evaluation
   std::vector<Vec2> u_;       // the density solve's predicted velocities
