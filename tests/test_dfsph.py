@@ -81,14 +81,15 @@ def pressure_acceleration(k, mg):
 
 
 def correct(u, e, f, mg, dt):
-    """One conjugate-gradient product from k = 0 (D6): the direction z = f e / dt^2
-    on the particles with e > 0, its step alpha = (e . z) / (z . M z) with
-    M z = -dt rate(dt a_p(z)), the values projected on k >= 0 and applied."""
+    """One conjugate-residual product from k = 0 (D6): the direction z = P e,
+    P = f / dt^2, on the particles with e > 0, its step
+    alpha = (z . M z) / (M z . P M z) with M z = -dt rate(dt a_p(z)) (the
+    residual's smallest P-norm), the values projected on k >= 0 and applied."""
     active = np.isfinite(e) & (e > 0)
-    r = np.where(active, e, 0.0)
-    z = r * f / dt**2
+    precond = f / dt**2
+    z = np.where(active, e, 0.0) * precond
     mz = np.where(active, -dt * rate(dt * pressure_acceleration(z, mg), mg), 0.0)
-    k = np.maximum((r * z).sum() / (z * mz).sum() * z, 0.0)
+    k = np.maximum((z * mz).sum() / (mz * precond * mz).sum() * z, 0.0)
     return u + dt * pressure_acceleration(k, mg)
 
 
@@ -127,18 +128,19 @@ def test_one_step_matches_a_brute_force_evaluation():
 
 def test_a_divergent_velocity_field_is_made_divergence_free():
     """A periodic box of random velocities: the divergence-free solve converges,
-    and its reported error is the state's own (recomputed in NumPy)."""
+    and its reported error is the state's own (recomputed in NumPy): in a
+    confined fluid expansion counts as compression does, mean |e| / 2 (D7)."""
     d = periodic_box(time_step=0.001)
     sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
     rng = np.random.default_rng(1)
     sim.set_state(sim.positions, rng.normal(scale=0.1, size=(sim.n_particles, 2)))
     m, h = sim.particle_mass, sim.smoothing_length
     _, _, mg = density_and_factor(sim.positions, m, kernel(h), periodic=0.4)
-    before = np.maximum(0.001 * rate(sim.velocities, mg), 0).mean() / RHO0
+    before = np.abs(0.001 * rate(sim.velocities, mg)).mean() / 2 / RHO0
     sim.step()
     st = sim.stats()
     _, _, mg = density_and_factor(sim.positions, m, kernel(h), periodic=0.4)
-    after = np.maximum(0.001 * rate(sim.velocities, mg), 0).mean() / RHO0
+    after = np.abs(0.001 * rate(sim.velocities, mg)).mean() / 2 / RHO0
     assert st["solve_unconverged"] == 0
     assert after == pytest.approx(st["solve_divergence_error"], rel=1e-6)
     assert after <= 1e-3 < before
@@ -202,6 +204,17 @@ def test_a_periodic_box_keeps_its_kinetic_energy():
     start = sim.stats()["kinetic_energy"]
     sim.advance_to(0.4)
     assert sim.stats()["kinetic_energy"] <= 1.02 * start
+
+
+def test_a_channel_between_walls_is_confined():
+    """Poiseuille start-up (the validation case at 15 across): a fluid filling
+    the channel between its walls is confined (D7's test of a free surface
+    takes the walls' share into account). Measured: 0.032 of v_max; taken for
+    one with a free surface, the guard stopped it at t = 0.92 s."""
+    from sphfluid.validation.cases import CASES
+
+    result = CASES["poiseuille"].run(15, "dfsph", threads=2)
+    assert result.ok and result.error < 0.05
 
 
 def test_one_and_two_threads_are_identical():

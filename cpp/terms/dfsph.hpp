@@ -67,10 +67,10 @@ inline Real rate_pair(const Vec2& vij, const Vec2& mg) { return vij.dot(mg); }
 inline Vec2 pressure_pair(Real ki, Real kj, const Vec2& mg) { return -(ki + kj) * mg; }
 
 // D6: the solves find the values k that make the errors e (the density a
-// particle would reach over the step less rho0, kg/m^3) vanish, k >= 0 (a
-// free surface cannot pull): M k = e with M k = -dt rate(dt a_p(k)), which
+// particle would reach over the step less rho0, or D7's reference, kg/m^3)
+// vanish, k >= 0 where there is a free surface (it cannot pull): M k = e with M k = -dt rate(dt a_p(k)), which
 // is dt^2 R R^T for the rate's matrix R (D4 and D5 are each other's
-// transposes), by conjugate gradients preconditioned with the stiffness
+// transposes), by conjugate residuals preconditioned with the stiffness
 // factors f / dt^2 (D3, the inverse of M's diagonal: Bender & Koschier's
 // Jacobi step). Jacobi itself (relaxed by 0.5; unrelaxed it diverges here)
 // cannot bring the smooth errors down: in a tank 1 m deep its mean error fell
@@ -81,7 +81,8 @@ inline Vec2 pressure_pair(Real ki, Real kj, const Vec2& mg) { return -(ki + kj) 
 // warm start; SPlisHSPlasH halves its warm starts too). With the whole
 // values and the Jacobi iteration a periodic box of random velocities gained
 // energy until the guard stopped it and a tank at rest from the lattice
-// churned at 0.15-0.19 sqrt(gH); with conjugate gradients that tank's
+// churned at 0.15-0.19 sqrt(gH); with conjugate gradients (D6's first
+// solver) that tank's
 // pressure was 16-20 % of rho0 g H off (RMS) at 1-2 s with the whole values,
 // 9-16 % with half.
 constexpr Real kWarmStart = 0.5;
@@ -99,20 +100,29 @@ constexpr Real kDeficient = 0.8;
 // r = 0, so that random offsets add to each sum): a mean excess that no
 // motion of an incompressible fluid removes. Aimed at rho0, the solve chased
 // it every step and turned it into velocity (a periodic box's random
-// velocities grew from 0.01 to 0.06 m/s RMS in 0.2 s); it aims at the
-// particles' mean density instead when that is higher (the pressure
-// equation's compatibility condition in a closed domain).
+// velocities grew from 0.01 to 0.06 m/s RMS in 0.2 s). A confined fluid's
+// solves aim at the particles' mean density instead (the pressure
+// equation's compatibility condition in a closed domain), with values of
+// either sign: its pressure is known up to a constant, and expansion is
+// undone as compression is.
 inline Real reference_density(const Real* rho, Index n, Real rho0, bool free_surface) {
   if (free_surface || n == 0) return rho0;
   Real sum = 0;
   for (Index i = 0; i < n; ++i) sum += rho[i];
-  return std::max(rho0, sum / static_cast<Real>(n));
+  return sum / static_cast<Real>(n);
 }
-// A free surface is there when some particle's |s_i| (D3's sum with the
-// walls' share, about 0 inside the fluid and beside a wall) exceeds half
-// that of the outer row of a flat free surface on the lattice of spacing dx
-// (particle mass m): unlike a density threshold, this holds for a
-// compressed fluid too. Returns the threshold's square.
+// A particle's share of a solve's error sum (D6): with a free surface only
+// compression counts (max(e, 0)); in a confined fluid, whose values may be
+// negative (D7), |e| / 2 (the same for errors of zero mean).
+inline Real error_share(Real e, bool confined) {
+  return confined ? Real(0.5) * std::abs(e) : std::max(e, Real(0));
+}
+// A free surface is there when some particle's |sum_j m grad W_ij + G_i / 2|
+// (about 0 inside the fluid and beside a wall, where G_i is twice the
+// missing fluid's static sum, D2) exceeds half that of the outer row of a
+// flat free surface on the lattice of spacing dx (particle mass m): unlike a
+// density threshold, this holds for a compressed fluid too. Returns the
+// threshold's square.
 inline Real free_surface_gradient2(const Wendland& W, Real dx, Real m) {
   const int reach = static_cast<int>(std::ceil(W.h / dx));
   Real gy = 0;  // the row at y = 0 with the rows below: the sum points up

@@ -6,7 +6,7 @@
 // with the summation density (D1), the walls' ghosts and shares (W7, D2), the
 // stiffness factors (D3), the divergence-free solve on the velocities (D6),
 // and the non-pressure accelerations of the next step (viscosity W6/W9, the
-// tension W10-W12, gravity). Both solves are conjugate gradients on
+// tension W10-W12, gravity). Both solves are conjugate residuals on
 // per-particle pressure values preconditioned by the stiffness factors,
 // warm-started from the previous step's, over a pair table made with the
 // search: each sum in one order whatever the thread count.
@@ -71,16 +71,18 @@ class DfsphMethod final : public SphMethod {
   // One solve on the velocities u (n): the pressure values k (a field, warm
   // start in, result out) with per-particle error e_i = base_i + dt
   // rho_rate_i(u) - rho0 (base: rho for the density, rho0 for the
-  // divergence), until mean(max(e, 0)) <= tol; iterations and the last mean.
+  // divergence), until the mean error share (D6, D7) <= tol; iterations and
+  // the last mean.
   struct Solve {
     int iterations = 0;
     Real error = 0;
     bool converged = false;
   };
   Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
-  void conjugate_gradients(const Real* k, Real dt, Real tol, int& iterations);
+  void conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations);
   void product(Real dt);
-  // e from velocities u (D4), the sum of max(e, 0); u += dt a_p(dk_), k += dk_.
+  // e from velocities u (D4), the sum of the error shares; u += dt a_p(dk_),
+  // k += dk_.
   Real errors(const Vec2* u, const Real* base, Real dt);
   void apply(Vec2* u, Real* k, Real dt);
   // D5 and D4 of particle i over the pair table: the pressure acceleration
@@ -132,11 +134,12 @@ class DfsphMethod final : public SphMethod {
   std::vector<Vec2> a_np_;    // the non-pressure accelerations of the last evaluation
   std::vector<Vec2> u_;       // the density solve's predicted velocities
   std::vector<Real> e_, dk_;  // per particle: the error and the pressure change
-  // The conjugate gradients' vectors, per particle: whether it takes part,
-  // the solution, the residual, the direction and M times it.
+  // The conjugate residuals' vectors, per particle: whether it takes part,
+  // the solution, the residual, the preconditioned residual z, the direction
+  // p, M z and M p.
   struct Cg {
     bool active;
-    Real x, r, p, mp;
+    Real x, r, z, p, az, ap;
   };
   std::vector<Cg> cg_;
   std::vector<Vec2> du_;  // a velocity change (D5 times dt)
