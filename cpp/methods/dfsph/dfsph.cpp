@@ -50,7 +50,10 @@ void DfsphMethod::select(unsigned features) {
 }
 
 void DfsphMethod::particles_added(Index first) {
-  for (Index i = first; i < ctx_.size(); ++i) kappa_[i] = kappa_v_[i] = 0;
+  for (Index i = first; i < ctx_.size(); ++i) {
+    kappa_[i] = kappa_v_[i] = 0;
+    a_last_[i] = Vec2::Zero();
+  }
 }
 
 std::size_t DfsphMethod::bytes() const {
@@ -90,10 +93,16 @@ void DfsphMethod::step_impl(Real dt, Real dt_cap) {
     neighbours<F>();  // restored from a checkpoint: evaluated afresh
     non_pressure<F>();
   }
-  std::copy(a_np_.begin(), a_np_.end(), ps.a.data());  // a retried step starts over
+  // The step's force condition reads each particle's larger acceleration:
+  // the non-pressure one, or the last step's whole one (with the pressure's).
+  Vec2* a = ps.a.data();
+  for (Index i = 0; i < ps.size(); ++i)
+    a[i] = a_last_[i].squaredNorm() > a_np_[i].squaredNorm() ? a_last_[i] : a_np_[i];
   dt = ctx_.step_size(dt, dt_cap);
+  std::copy(a_np_.begin(), a_np_.end(), a);  // (a retried step starts over)
   ctx_.timer.start();
   density_solve(dt);
+  std::copy(a, a + ps.size(), a_last_.data());
   ctx_.timer.mark(kSolve);
   ctx_.integrate<(F & kWalls) != 0, (F & kPeriodic) != 0>(dt, dt);
   ctx_.timer.mark(kIntegrate);

@@ -122,6 +122,9 @@ class DfsphMethod final : public SphMethod {
   // The solves' pressure values (p / rho^2), the warm starts of the next step.
   Field<Real> kappa_{ctx_.ps, "dfsph_pressure", FieldKind::kState};
   Field<Real> kappa_v_{ctx_.ps, "dfsph_divergence_pressure", FieldKind::kState};
+  // The last step's whole acceleration (non-pressure and the constant-density
+  // solve's pressure): the next step's force condition reads it.
+  Field<Vec2> a_last_{ctx_.ps, "dfsph_acceleration", FieldKind::kState};
   // The pair table of the last evaluation: particle i's neighbours
   // pair_j_[first_[i] .. first_[i+1]) and m grad W_ij for each (the solves'
   // iterations read it instead of the kernel).
