@@ -3,6 +3,7 @@ evaluation, the solves' convergence and reports, determinism and bad input."""
 from __future__ import annotations
 
 import copy
+import re
 
 import numpy as np
 import pytest
@@ -292,6 +293,7 @@ def test_the_run_summary_and_the_viewer_report_the_solves(tmp_path, capsys, monk
     assert main(["run", str(tmp_path / "t.json"), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "pressure solves" in out and "stopped at max_iterations" in out
+    assert re.search(r"a step, [0-9.e-]+ ms each; last step", out)  # time per iteration
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     pygame = pytest.importorskip("pygame")
     from sphfluid.viewer import _Window

@@ -792,8 +792,11 @@ def _print_summary(run: _Run) -> None:
     scene = sim.scene
     if scene.method == "dfsph":
         its = st["solve_iterations"]
-        print(f"pressure solves     {its:,} iterations ({its / max(done, 1):.1f} a step; last "
-              f"step {st['solve_density_iterations']} + {st['solve_divergence_iterations']}); "
+        each = (f", {1e3 * sim._solver.phase_seconds()['solve'] / its:.3g} ms each" if its
+                else "")
+        print(f"pressure solves     {its:,} iterations ({its / max(done, 1):.1f} a step{each}; "
+              f"last step {st['solve_density_iterations']} + "
+              f"{st['solve_divergence_iterations']}); "
               f"{st['solve_unconverged']:,} stopped at max_iterations")
     if scene.emitters or scene.sinks or scene.inlets or scene.outlets:
         b = sim.balance
