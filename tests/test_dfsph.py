@@ -185,6 +185,23 @@ def test_a_tank_holds_its_water_near_hydrostatic_without_crossing_a_wall():
     assert sim.stats()["solve_unconverged"] == 0
 
 
+def test_the_columns_beside_the_walls_do_not_slide_down_them():
+    """A tank 1 m deep from the lattice: the particles beside a vertical wall
+    are carried by the wall's fluid's pressure along it (D8). Measured after
+    20 steps: their mean vertical velocity -0.006 m/s (-0.091 without D8,
+    the fastest at 0.13 m/s)."""
+    d = scene()
+    d["resolution"] = {"spacing": 0.05}
+    d["fluid"]["viscosity"] = 1e-3
+    d["fluid_regions"] = [{"shape": "rectangle", "min": [0.0, 0.0], "max": [1.0, 1.0]}]
+    d["walls"] = [{"polyline": [[0.0, 1.5], [0.0, 0.0], [1.0, 0.0], [1.0, 1.5]]}]
+    sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
+    sim.step(20)
+    x, v = sim.positions, sim.velocities
+    side = (x[:, 0] < 0.05) | (x[:, 0] > 0.95)
+    assert abs(v[side, 1].mean()) < 0.02 and np.abs(v[side]).max() < 0.05
+
+
 def test_a_box_at_rest_on_the_lattice_stays_at_rest():
     d = periodic_box(time_step=0.002)
     sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)

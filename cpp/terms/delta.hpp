@@ -226,13 +226,23 @@ inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i,
                   t.corner_line(d2, d1) * vi_of(r2).dot(r2) / d2);
   });
 }
-inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Vec2& g, Vec2& f) {
+// With normal = false only the tangential part, and no corner (dfsph, D8,
+// whose solve sets the push along the normal through the particle's own
+// value; with gravity along a wall's normal the quadrant is then counted by
+// the other wall alone).
+inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Vec2& g, Vec2& f,
+                                 bool normal = true) {
   for (const Vec2& r : ghosts) {
     const Real rl = r.norm();
     if (!(rl > 0)) continue;
     const Vec2 n = r / rl, tg(-n.y(), n.x());
-    f += -g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg;
+    if (normal) {
+      f += -g.dot(n) * t.wall_nn(rl) * n - g.dot(tg) * t.wall_tt(rl) * tg;
+    } else {
+      f += -g.dot(tg) * t.wall_tt(rl) * tg;
+    }
   }
+  if (!normal) return;
   wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     const Vec2 n1 = r1 / d1, n2 = r2 / d2;
     const Real g1 = g.dot(n1), g2 = g.dot(n2), c12 = t.corner_12(d1, d2);

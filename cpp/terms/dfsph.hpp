@@ -1,9 +1,10 @@
-// The dfsph method's equations (docs/method-dfsph.md, eqs. D1-D7), each
+// The dfsph method's equations (docs/method-dfsph.md, eqs. D1-D8), each
 // written once: the walls' share of sum_j m grad W_ij (D2), the stiffness
 // factor (D3), the rate of density change (D4) and the pressure acceleration
-// of a solve's pressure values (D5), per pair and per particle. The density
-// (D1) is wcsph's summation with the walls' share (W2, W7). Values in,
-// values out.
+// of a solve's pressure values (D5), per pair and per particle; the density
+// aimed at (D7). The density (D1) is wcsph's summation with the walls' share
+// (W2, W7); D8 is W20's tangential part (delta::add_wall_hydrostatic).
+// Values in, values out.
 #pragma once
 
 #include <algorithm>

@@ -12,6 +12,7 @@
 
 #include "integrate.hpp"
 #include "neighbours/pair_loops.hpp"
+#include "terms/delta.hpp"
 #include "terms/wcsph.hpp"
 
 namespace sphfluid {
@@ -211,6 +212,12 @@ void DfsphMethod::non_pressure() {
   } else {
     std::fill(a, a + n, Vec2::Zero());
   }
+  // The walls' fluid's pressure along the wall (W20's tangential part, D8).
+  if constexpr ((F & kWalls) != 0) {
+    ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
+      delta::add_wall_hydrostatic(walls_, ghosts, P_.gravity, a[i], false);
+    });
+  }
   if constexpr ((F & kSurfaceTension) != 0)
     surface_.evaluate(ps.x.data(), n, P_.mass, ctx_.team());
   ctx_.add_gravity_and_kick(0, (F & kSurfaceTension) != 0 ? surface_.accelerations() : nullptr);
@@ -325,16 +332,8 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
 // products in all), at the most iterations, or when a direction brings
 // nothing.
 void DfsphMethod::conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations) {
-  const Index n = ctx_.size();
   const Real inv_dt2 = 1 / (dt * dt);
-  const bool confined = !free_surface_;
-  for (Index i = 0; i < n; ++i) {
-    Cg& c = cg_[i];
-    c.active = std::isfinite(e_[i]) && (confined || e_[i] > 0 || k[i] > 0);
-    c.x = 0;
-    c.r = c.active ? e_[i] : 0;
-    c.z = c.r * factor_[i] * inv_dt2;
-  }
+  start_residuals(k, inv_dt2);
   if (iterations >= P_.max_iterations) return;
   product(dt);  // az = M z
   ++iterations;
@@ -346,18 +345,10 @@ void DfsphMethod::conjugate_residuals(const Real* k, Real dt, Real tol, int& ite
   }
   while (zaz > 0) {
     Real apap = 0;
-    for (Index i = 0; i < n; ++i) apap += cg_[i].ap * cg_[i].ap * factor_[i];
+    for (std::size_t i = 0; i < cg_.size(); ++i) apap += cg_[i].ap * cg_[i].ap * factor_[i];
     apap *= inv_dt2;
     if (!(apap > 0)) return;
-    const Real alpha = zaz / apap;
-    Real err = 0;
-    for (Index i = 0; i < n; ++i) {
-      Cg& c = cg_[i];
-      c.x += alpha * c.p;
-      c.r -= alpha * c.ap;
-      c.z = c.r * factor_[i] * inv_dt2;
-      err += dfsph::error_share(c.r, confined);
-    }
+    const Real err = residual_step(zaz / apap, inv_dt2);
     if ((iterations >= P_.min_iterations && err <= tol) || iterations >= P_.max_iterations) return;
     product(dt);
     ++iterations;
@@ -370,6 +361,33 @@ void DfsphMethod::conjugate_residuals(const Real* k, Real dt, Real tol, int& ite
       c.ap = c.az + beta * c.ap;
     }
   }
+}
+
+// The active set (an error above 0 or a value above 0; in a confined fluid
+// every particle with a finite error), x = 0, r = e, z = P r.
+void DfsphMethod::start_residuals(const Real* k, Real inv_dt2) {
+  const bool confined = !free_surface_;
+  for (std::size_t i = 0; i < cg_.size(); ++i) {
+    Cg& c = cg_[i];
+    c.active = std::isfinite(e_[i]) && (confined || e_[i] > 0 || k[i] > 0);
+    c.x = 0;
+    c.r = c.active ? e_[i] : 0;
+    c.z = c.r * factor_[i] * inv_dt2;
+  }
+}
+
+// x += alpha p, r -= alpha M p, z = P r; the residuals' error sum.
+Real DfsphMethod::residual_step(Real alpha, Real inv_dt2) {
+  const bool confined = !free_surface_;
+  Real err = 0;
+  for (std::size_t i = 0; i < cg_.size(); ++i) {
+    Cg& c = cg_[i];
+    c.x += alpha * c.p;
+    c.r -= alpha * c.ap;
+    c.z = c.r * factor_[i] * inv_dt2;
+    err += dfsph::error_share(c.r, confined);
+  }
+  return err;
 }
 
 // az = M z (conjugate_residuals): the velocity change du = dt a_p(z) (D5),

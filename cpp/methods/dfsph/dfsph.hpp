@@ -80,6 +80,8 @@ class DfsphMethod final : public SphMethod {
   };
   Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
   void conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations);
+  void start_residuals(const Real* k, Real inv_dt2);
+  Real residual_step(Real alpha, Real inv_dt2);
   void product(Real dt);
   // e from velocities u (D4), the sum of the error shares; u += dt a_p(dk_),
   // k += dk_.
