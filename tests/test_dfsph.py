@@ -248,10 +248,10 @@ def test_one_and_two_threads_are_identical():
 
 def test_the_particles_order_leaves_every_observable_unchanged():
     """The same tank given in a shuffled order: per particle id the same state
-    after 40 steps, to round-off (the order of a particle's sums may differ),
-    with the solves converged tightly. (At the default tolerances the solves'
-    answers are defined to within them only: a round-off difference can end a
-    solve an iteration earlier, 0.003 m/s apart after one step here.)"""
+    after 40 steps, with the solves converged tightly (1e-9 of rho0), to
+    within what that tolerance leaves (a sum's order can end a solve an
+    iteration earlier; measured: 1e-14 m/s apart in one build, 3e-8 in
+    another; at the default tolerances 0.003 m/s after one step)."""
     solver = {"density_tolerance": 1e-9, "divergence_tolerance": 1e-9, "max_iterations": 1000}
     runs = []
     for shuffle in (False, True):
@@ -265,7 +265,7 @@ def test_the_particles_order_leaves_every_observable_unchanged():
         runs.append((sim.positions[by_id], sim.velocities[by_id], sim.pressures[by_id],
                      sim.densities[by_id]))
     for a, b in zip(*runs):
-        assert np.allclose(a, b, rtol=1e-9, atol=1e-9)
+        assert np.allclose(a, b, rtol=1e-6, atol=1e-6)
     assert np.abs(runs[0][1]).max() > 1e-3  # the water moved
 
 

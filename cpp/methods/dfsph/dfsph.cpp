@@ -1,9 +1,10 @@
 // The dfsph method's step (docs/method-dfsph.md) as ordered phases, each one
 // parallel loop (the solves over the pair table, the viscosity over full
-// neighbour lists) whose sums do not depend on the thread count: the constant-density solve, semi-implicit Euler (the kick and
-// the drift with the wall collision), then at the new positions the summation
-// density (D1) with the walls (W7, D2), the stiffness factors (D3), the
-// divergence-free solve, and the non-pressure accelerations.
+// neighbour lists) whose sums do not depend on the thread count: the
+// constant-density solve, semi-implicit Euler (the kick and the drift with
+// the wall collision), then at the new positions the summation density (D1)
+// with the walls (W7, D2), the stiffness factors (D3), the divergence-free
+// solve, and the non-pressure accelerations (with D8).
 #include "methods/dfsph/dfsph.hpp"
 
 #include <algorithm>
@@ -178,7 +179,7 @@ void DfsphMethod::neighbours() {
   ctx_.timer.mark(kDensity);
 }
 
-// W6 and W9 (physical viscosity, no artificial one), the tension, gravity;
+// W6 and W9 (physical viscosity, no artificial one), D8, the tension, gravity;
 // the pressure the last density solve found, p = k rho^2.
 template <unsigned F>
 void DfsphMethod::non_pressure() {

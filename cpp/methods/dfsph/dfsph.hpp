@@ -60,19 +60,20 @@ class DfsphMethod final : public SphMethod {
   // The search, the density (D1) and the walls' shares, and the stiffness
   // factors (D3), at the current positions.
   template <unsigned F> void neighbours();
-  // a = the viscosity (W6, W9) + the tension + g, kept for the next step.
+  // a = the viscosity (W6, W9) + the walls' fluid's pressure along them (D8)
+  // + the tension + g, kept for the next step.
   template <unsigned F> void non_pressure();
   // The constant-density solve: the velocities v + dt a corrected until the
-  // density they make over dt is within the tolerance of rho0; a then holds
-  // the total acceleration. The divergence-free solve: v corrected until its
+  // density they make over dt is within the tolerance of the reference (D7);
+  // a then holds the total acceleration. The divergence-free solve: v corrected until its
   // rate of density change is within the tolerance.
   void density_solve(Real dt);
   void divergence_solve(Real dt);
   // One solve on the velocities u (n): the pressure values k (a field, warm
   // start in, result out) with per-particle error e_i = base_i + dt
-  // rho_rate_i(u) - rho0 (base: rho for the density, rho0 for the
-  // divergence), until the mean error share (D6, D7) <= tol; iterations and
-  // the last mean.
+  // rho_rate_i(u) - rho0 (base: rho0 + the step's share of rho - rho_ref for
+  // the density, rho0 for the divergence), until the mean error share (D6,
+  // D7) <= tol; iterations and the last mean.
   struct Solve {
     int iterations = 0;
     Real error = 0;
