@@ -102,6 +102,28 @@ class Balance {
   std::vector<Index> cuts_;
 };
 
+// The sum of f(i) over i in [0, n), on `threads` threads, the same whatever
+// their number: blocks of kSumBlock items, each summed in index order, then
+// the blocks' sums in block order. f may also write item i's own values (a
+// loop and its reduction in one pass). `partial` is scratch (no allocation
+// in a step once it has grown).
+inline constexpr Index kSumBlock = 1024;
+template <class F>
+Real block_sum(Index n, int threads, std::vector<Real>& partial, F f) {
+  const Index blocks = (n + kSumBlock - 1) / kSumBlock;
+  partial.resize(static_cast<std::size_t>(blocks));
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (Index b = 0; b < blocks; ++b) {
+    const Index last = std::min(n, (b + 1) * kSumBlock);
+    Real s = 0;
+    for (Index i = b * kSumBlock; i < last; ++i) s += f(i);
+    partial[static_cast<std::size_t>(b)] = s;
+  }
+  Real sum = 0;
+  for (Index b = 0; b < blocks; ++b) sum += partial[static_cast<std::size_t>(b)];
+  return sum;
+}
+
 inline int thread_rank() {
 #ifdef _OPENMP
   return omp_get_thread_num();

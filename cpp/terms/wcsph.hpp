@@ -53,6 +53,15 @@ inline Real elastic_energy(Real r, Real rho0, Real B) {
          B * (1 / (r * rho0) - 1 / rho0);
 }
 
+// W6's coefficient (Morris, Fox & Zhu 1997): the viscous acceleration on i
+// is k v_ij with k = 2 m eta / (rho_i rho_j) (r_ij . grad W) / (r^2 + eps^2),
+// from m_eta2 = 2 m eta, ir = 1 / rho, r_gw = r_ij . grad W and inv_r2e =
+// 1 / (r^2 + eps^2) (or 2 eta and r_ij . m grad W).
+template <class L>
+SPHFLUID_INLINE L morris(L m_eta2, L ir_i, L ir_j, L r_gw, L inv_r2e) {
+  return m_eta2 * ir_i * ir_j * r_gw * inv_r2e;
+}
+
 // W4-W6 for one pair on the lanes of `in` (r < h), as an acceleration on i
 // (j gets minus it):
 //   f = -m (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad W(r_ij)
@@ -89,7 +98,7 @@ struct PairForce {
       if constexpr (Normalised) {
         k = c.m_eta2 * ir_i * ir_j * s * lap_ij;
       } else {
-        k = c.m_eta2 * ir_i * ir_j * simd::fmadd(dx, gwx, dy * gwy) * inv_r2e;
+        k = morris(c.m_eta2, ir_i, ir_j, simd::fmadd(dx, gwx, dy * gwy), inv_r2e);
       }
       fx = simd::mask3_fmadd(k, vijx, fx, in);
       fy = simd::mask3_fmadd(k, vijy, fy, in);

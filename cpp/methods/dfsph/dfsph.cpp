@@ -1,6 +1,6 @@
 // The dfsph method's step (docs/method-dfsph.md) as ordered phases, each one
-// parallel loop (the solves over the pair table, the viscosity over full
-// neighbour lists) whose sums do not depend on the thread count: the
+// parallel loop over the pair table whose sums do not depend on the thread
+// count (per particle in list order, across particles by block_sum): the
 // constant-density solve, semi-implicit Euler (the kick and the drift with
 // the wall collision), then at the new positions the summation density (D1)
 // with the walls (W7, D2), the stiffness factors (D3), the divergence-free
@@ -12,29 +12,10 @@
 #include <limits>
 
 #include "integrate.hpp"
-#include "neighbours/pair_loops.hpp"
 #include "terms/delta.hpp"
 #include "terms/wcsph.hpp"
 
 namespace sphfluid {
-
-namespace {
-
-// A gather visitor (neighbours/pair_loops.hpp) from an accumulator's start
-// value and two functions: pair(acc, i, j, r, r2) and end(i, acc).
-template <class Acc, class Pair, class End>
-struct Gather {
-  Acc init;
-  Pair on_pair;
-  End on_end;
-  Acc begin(Index) const { return init; }
-  void pair(Acc& acc, Index i, Index j, const Vec2& r, Real r2, bool) const {
-    on_pair(acc, i, j, r, r2);
-  }
-  void end(Index i, const Acc& acc) const { on_end(i, acc); }
-};
-
-}  // namespace
 
 DfsphMethod::DfsphMethod(Context& ctx)
     : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
@@ -60,28 +41,15 @@ void DfsphMethod::particles_added(Index first) {
 
 std::size_t DfsphMethod::bytes() const {
   return (factor_.capacity() + e_.capacity() + dk_.capacity() + rho0s_.capacity() +
-          inv_rho_.capacity()) * sizeof(Real) + cg_.capacity() * sizeof(Cg) +
+          inv_rho_.capacity() + x_.capacity() + r_.capacity() + z_.capacity() +
+          p_.capacity() + az_.capacity() + ap_.capacity() + partial_.capacity()) *
+             sizeof(Real) +
+         active_.capacity() +
          du_.capacity() * sizeof(Vec2) +
          (first_.capacity() + pair_j_.capacity()) * sizeof(Index) +
          (wall_g_.capacity() + a_np_.capacity() + u_.capacity() + pair_mg_.capacity()) *
              sizeof(Vec2) +
          walls_.bytes() + surface_.bytes();
-}
-
-template <unsigned F, class Acc, class Pair, class End>
-void DfsphMethod::each_pair(Acc init, Pair pair, End end) const {
-  const ParticleSet& ps = ctx_.ps;
-  Gather<Acc, Pair, End> visitor{init, pair, end};
-  const PeriodicBox& box = ctx_.box;
-  pair_loops::gather(ctx_.search.lists(), ps.x.data(), ps.size(), ctx_.team(),
-                     [&](const Vec2& p, const Vec2& q) {
-                       if constexpr ((F & kPeriodic) != 0) {
-                         return box.delta(p, q);
-                       } else {
-                         return Vec2(p - q);
-                       }
-                     },
-                     visitor);
 }
 
 // Semi-implicit Euler around the two solves (Bender & Koschier 2017, Alg. 1):
@@ -189,27 +157,37 @@ void DfsphMethod::non_pressure() {
   const Real* rho = ps.rho.data();
   const Vec2* v = ps.v.data();
   if constexpr ((F & kViscosity) != 0) {
+    // W6 over the pair table (its m grad W_ij, no kernel to evaluate again)
+    // and W9's walls.
     inv_rho_.resize(n);
     for (Index i = 0; i < n; ++i) inv_rho_[i] = 1 / rho[i];
     wcsph::PairConstants<Real> c = wcsph::pair_constants<Real>(P_);
     c.av = 0;
-    each_pair<F>(
-        Vec2(Vec2::Zero()),
-        [&](Vec2& f, Index i, Index j, const Vec2& r, Real r2) {
-          Real fx, fy;
-          const Vec2 vij = v[i] - v[j];
-          wcsph::PairForce<true>::f(r2 < kernel_.h2, kernel_, c, rho[i] + rho[j], Real(0),
-                                    inv_rho_[i], inv_rho_[j], r.x(), r.y(), r2, vij.x(),
-                                    vij.y(), fx, fy);
-          f += Vec2(fx, fy);
-        },
-        [&](Index i, const Vec2& f) {
-          Vec2 fi = f;
-          if constexpr ((F & kWalls) != 0)
-            wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ctx_.ghosts.row(i), 0,
-                                        inv_rho_[i], v[i], fi);
-          a[i] = fi;
-        });
+    const Real eta2 = 2 * P_.eta;
+    const Vec2* x = ps.x.data();
+    const PeriodicBox& box = ctx_.box;
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i) {
+      const Vec2 xi = x[i], vi = v[i];
+      const Real ir_i = inv_rho_[i];
+      Vec2 f = Vec2::Zero();
+      for (Index q = first_[i]; q < first_[i + 1]; ++q) {
+        const Index j = pair_j_[q];
+        Vec2 r;
+        if constexpr ((F & kPeriodic) != 0) {
+          r = box.delta(xi, x[j]);
+        } else {
+          r = xi - x[j];
+        }
+        f += wcsph::morris(eta2, ir_i, inv_rho_[j], r.dot(pair_mg_[q]),
+                           1 / (r.squaredNorm() + c.eps2)) *
+             (vi - v[j]);
+      }
+      if constexpr ((F & kWalls) != 0)
+        wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ctx_.ghosts.row(i), 0, ir_i,
+                                    vi, f);
+      a[i] = f;
+    }
   } else {
     std::fill(a, a + n, Vec2::Zero());
   }
@@ -283,10 +261,10 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
     s.converged = true;
     return s;
   }
-  cg_.resize(n);
+  for (std::vector<Real>* v : {&x_, &r_, &z_, &p_, &az_, &ap_, &dk_, &e_}) v->resize(n);
+  active_.resize(n);
   du_.resize(n);
-  dk_.resize(n);
-  e_.resize(n);
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
     dk_[i] = dfsph::kWarmStart * k[i];
     k[i] = 0;
@@ -306,11 +284,10 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
       s.converged = s.error <= tol;
       break;
     }
-    if (free_surface_) {  // projected on k >= 0
-      for (Index i = 0; i < n; ++i) dk_[i] = std::max(k[i] + cg_[i].x, Real(0)) - k[i];
-    } else {
-      for (Index i = 0; i < n; ++i) dk_[i] = cg_[i].x;
-    }
+    const bool project = free_surface_;  // on k >= 0
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i)
+      dk_[i] = project ? std::max(k[i] + x_[i], Real(0)) - k[i] : x_[i];
     apply(u, k, dt);
     s.error = errors(u, base, dt) * norm;
   }
@@ -331,36 +308,23 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
 // t = 0.39 s (it runs to 1 s with these). Stops when the
 // residuals' error sum is at most `tol` (after at least min_iterations
 // products in all), at the most iterations, or when a direction brings
-// nothing.
+// nothing. Each loop is parallel, its sums in fixed blocks (block_sum).
 void DfsphMethod::conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations) {
   const Real inv_dt2 = 1 / (dt * dt);
   start_residuals(k, inv_dt2);
   if (iterations >= P_.max_iterations) return;
-  product(dt);  // az = M z
+  Real zaz = product(dt);  // az = M z
   ++iterations;
-  Real zaz = 0;
-  for (Cg& c : cg_) {
-    c.p = c.z;
-    c.ap = c.az;
-    zaz += c.z * c.az;
-  }
+  Real apap = directions(0, true, inv_dt2);
   while (zaz > 0) {
-    Real apap = 0;
-    for (std::size_t i = 0; i < cg_.size(); ++i) apap += cg_[i].ap * cg_[i].ap * factor_[i];
-    apap *= inv_dt2;
     if (!(apap > 0)) return;
     const Real err = residual_step(zaz / apap, inv_dt2);
     if ((iterations >= P_.min_iterations && err <= tol) || iterations >= P_.max_iterations) return;
-    product(dt);
+    const Real zaz_next = product(dt);
     ++iterations;
-    Real zaz_next = 0;
-    for (const Cg& c : cg_) zaz_next += c.z * c.az;
     const Real beta = zaz_next / zaz;
     zaz = zaz_next;
-    for (Cg& c : cg_) {
-      c.p = c.z + beta * c.p;
-      c.ap = c.az + beta * c.ap;
-    }
+    apap = directions(beta, false, inv_dt2);
   }
 }
 
@@ -368,52 +332,61 @@ void DfsphMethod::conjugate_residuals(const Real* k, Real dt, Real tol, int& ite
 // every particle with a finite error), x = 0, r = e, z = P r.
 void DfsphMethod::start_residuals(const Real* k, Real inv_dt2) {
   const bool confined = !free_surface_;
-  for (std::size_t i = 0; i < cg_.size(); ++i) {
-    Cg& c = cg_[i];
-    c.active = std::isfinite(e_[i]) && (confined || e_[i] > 0 || k[i] > 0);
-    c.x = 0;
-    c.r = c.active ? e_[i] : 0;
-    c.z = c.r * factor_[i] * inv_dt2;
+  const Index n = ctx_.size();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    const bool on = std::isfinite(e_[i]) && (confined || e_[i] > 0 || k[i] > 0);
+    active_[i] = on;
+    x_[i] = 0;
+    r_[i] = on ? e_[i] : 0;
+    z_[i] = r_[i] * factor_[i] * inv_dt2;
   }
+}
+
+// p = z + beta p, Mp = Mz + beta Mp (the first: p = z, Mp = Mz); returns
+// (Mp)^T P (Mp).
+Real DfsphMethod::directions(Real beta, bool first, Real inv_dt2) {
+  return inv_dt2 * block_sum(ctx_.size(), ctx_.team(), partial_, [&](Index i) {
+           p_[i] = first ? z_[i] : z_[i] + beta * p_[i];
+           ap_[i] = first ? az_[i] : az_[i] + beta * ap_[i];
+           return ap_[i] * ap_[i] * factor_[i];
+         });
 }
 
 // x += alpha p, r -= alpha M p, z = P r; the residuals' error sum.
 Real DfsphMethod::residual_step(Real alpha, Real inv_dt2) {
   const bool confined = !free_surface_;
-  Real err = 0;
-  for (std::size_t i = 0; i < cg_.size(); ++i) {
-    Cg& c = cg_[i];
-    c.x += alpha * c.p;
-    c.r -= alpha * c.ap;
-    c.z = c.r * factor_[i] * inv_dt2;
-    err += dfsph::error_share(c.r, confined);
-  }
-  return err;
+  return block_sum(ctx_.size(), ctx_.team(), partial_, [&](Index i) {
+    x_[i] += alpha * p_[i];
+    r_[i] -= alpha * ap_[i];
+    z_[i] = r_[i] * factor_[i] * inv_dt2;
+    return dfsph::error_share(r_[i], confined);
+  });
 }
 
 // az = M z (conjugate_residuals): the velocity change du = dt a_p(z) (D5),
-// then -dt times its rate (D4) on the active particles.
-void DfsphMethod::product(Real dt) {
+// then -dt times its rate (D4) on the active particles; returns z^T M z.
+Real DfsphMethod::product(Real dt) {
   const Index n = ctx_.size();
+  const Real* z = z_.data();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [&](Index j) {
-    return cg_[j].z;
+  for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [z](Index j) {
+    return z[j];
   });
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i)
-    cg_[i].az = cg_[i].active ? -dt * rate(i, du_.data()) : Real(0);
+  return block_sum(n, ctx_.team(), partial_, [&](Index i) {
+    az_[i] = active_[i] ? -dt * rate(i, du_.data()) : Real(0);
+    return z_[i] * az_[i];
+  });
 }
 
-// e = base + dt rate(u) - rho0 (D4); the sum of the error shares, in index
-// order.
+// e = base + dt rate(u) - rho0 (D4); the sum of the error shares.
 Real DfsphMethod::errors(const Vec2* u, const Real* base, Real dt) {
   const Real rho0 = P_.rho0;
-  const Index n = ctx_.size();
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) e_[i] = base[i] + dt * rate(i, u) - rho0;
-  Real sum = 0;
-  for (const Real e : e_) sum += dfsph::error_share(e, !free_surface_);
-  return sum;
+  const bool confined = !free_surface_;
+  return block_sum(ctx_.size(), ctx_.team(), partial_, [&](Index i) {
+    e_[i] = base[i] + dt * rate(i, u) - rho0;
+    return dfsph::error_share(e_[i], confined);
+  });
 }
 
 // u += dt a_p(dk) (D5), k += dk.
@@ -421,11 +394,8 @@ void DfsphMethod::apply(Vec2* u, Real* k, Real dt) {
   const Index n = ctx_.size();
   const Real* dk = dk_.data();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [&](Index j) {
-    return dk[j];
-  });
   for (Index i = 0; i < n; ++i) {
-    u[i] += du_[i];
+    u[i] += dt * pressure_acceleration(i, [dk](Index j) { return dk[j]; });
     k[i] += dk[i];
   }
 }

@@ -83,7 +83,8 @@ class DfsphMethod final : public SphMethod {
   void conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations);
   void start_residuals(const Real* k, Real inv_dt2);
   Real residual_step(Real alpha, Real inv_dt2);
-  void product(Real dt);
+  Real product(Real dt);
+  Real directions(Real beta, bool first, Real inv_dt2);
   // e from velocities u (D4), the sum of the error shares; u += dt a_p(dk_),
   // k += dk_.
   Real errors(const Vec2* u, const Real* base, Real dt);
@@ -105,11 +106,6 @@ class DfsphMethod final : public SphMethod {
       r += dfsph::rate_pair(ui - u[pair_j_[q]], pair_mg_[q]);
     return r;
   }
-  // Each particle over its full neighbour list (the viscosity), from an accumulator of value
-  // init: pair(acc, i, j, r_ij, r^2) for each neighbour, then end(i, acc);
-  // across periodic seams by minimum images.
-  template <unsigned F, class Acc, class Pair, class End>
-  void each_pair(Acc init, Pair pair, End end) const;
 
   using StepFn = void(DfsphMethod&, Real, Real);
   using EvalFn = void(DfsphMethod&);
@@ -142,12 +138,10 @@ class DfsphMethod final : public SphMethod {
   std::vector<Real> e_, dk_;  // per particle: the error and the pressure change
   // The conjugate residuals' vectors, per particle: whether it takes part,
   // the solution, the residual, the preconditioned residual z, the direction
-  // p, M z and M p.
-  struct Cg {
-    bool active;
-    Real x, r, z, p, az, ap;
-  };
-  std::vector<Cg> cg_;
+  // p, M z and M p (each its own array: the products gather z by neighbour).
+  std::vector<char> active_;
+  std::vector<Real> x_, r_, z_, p_, az_, ap_;
+  std::vector<Real> partial_;  // block_sum's scratch
   std::vector<Vec2> du_;  // a velocity change (D5 times dt)
   std::vector<Real> rho0s_;   // rho0 per particle (the divergence solve's base)
   std::vector<Real> inv_rho_;  // 1 / rho (the viscosity)
