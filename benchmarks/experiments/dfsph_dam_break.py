@@ -18,9 +18,7 @@ from sphfluid.bench import dam_break_scene
 
 def main() -> None:
     n_target = int(sys.argv[1]) if len(sys.argv) > 1 else 10_000
-    d = dam_break_scene(n_target, "dfsph")
-    d["solver"] = {"method": "dfsph", "time_step": "auto"}
-    d["fluid"] = {"rest_density": 1000.0, "viscosity": 1e-3}
+    d = dam_break_scene(n_target, "dfsph")  # water, the adaptive step
     sim = sphfluid.Simulation(sphfluid.load_scene(d), threads=2)
     n0, worst, means = sim.n_particles, 0.0, []
     start = time.perf_counter()

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/room.hpp"
 #include "simd/points.hpp"
 
 namespace sphfluid {
@@ -168,6 +169,8 @@ void CellGrid::counting_sort(const Vec2* x, Index n, int nt, bool cells_known,
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
   const Index* cell = cell_in_.data();
   cell_of_.resize(n);
+  room(cell_start_, n_cells + 1);
+  room(cursor_, static_cast<std::size_t>(nt) * n_cells + 1);
   cell_start_.assign(n_cells + 1, 0);
   order.resize(n);
   Index* sorted = cell_of_.data();
@@ -399,6 +402,7 @@ void CellGrid::shift_cell_starts() {
     }
     return;
   }
+  room(cursor_, n_cells + 1);
   cursor_.assign(n_cells + 1, 0);  // how start[c]'s change differs from start[c - 1]'s
   for (const Index i : movers_) {
     --cursor_[was[i] + 1];

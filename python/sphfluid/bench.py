@@ -102,11 +102,13 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
 
     dt scales with the spacing (a fixed CFL number), so every N runs the same
     physics: dt = 0.0002 s at dx = 0.02 m for the seed; for wcsph 0.3 (h/2)/c0
-    with its default support h.
+    with its default support h. dfsph runs water (its viscosity, 1e-3 Pa s) with
+    its own adaptive step: the flow's CFL condition, no sound speed.
     """
     dx = math.sqrt(2.0 / n_target)
-    scene = GEOMETRY.scene(dx, name=f"Dam break, {n_target:,} particles",
-                           fluid={"gas_constant": 250.0, "viscosity": 30.0},
+    fluid = {"viscosity": 1e-3} if method == "dfsph" else {"gas_constant": 250.0,
+                                                           "viscosity": 30.0}
+    scene = GEOMETRY.scene(dx, name=f"Dam break, {n_target:,} particles", fluid=fluid,
                            solver={"method": method, "time_step": 0.0002 * dx / 0.02})
     if method == "wcsph":  # a fixed step within its CFL limit: 0.3 (h/2) / c0
         from .scene import load_scene
@@ -114,12 +116,14 @@ def dam_break_scene(n_target: int, method: str = "seed") -> dict:
 
         loaded = load_scene(scene)
         scene["solver"]["time_step"] = 0.15 * loaded.smoothing_length / speed_of_sound(loaded)
+    elif method == "dfsph":
+        scene["solver"]["time_step"] = "auto"
     return scene
 
 
 # What the suite times: the methods, and the seed with its pair forces in float
 # (solver.pair_precision).
-VARIANTS = ("seed", "wcsph", "seed-float")
+VARIANTS = ("seed", "wcsph", "seed-float", "dfsph")
 
 
 def variant_scene(n_target: int, variant: str) -> dict:

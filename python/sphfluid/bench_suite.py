@@ -235,7 +235,7 @@ def scaling_plot(rows: list[dict], path: Path) -> bool:
     except ImportError:
         return False
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for method, colour in zip(VARIANTS, ("C0", "C1", "C2")):
+    for method, colour in zip(VARIANTS, ("C0", "C1", "C2", "C3")):
         for kind, style in (("dam", "o-"), ("bare", "s--")):
             for threads, alpha in ((1, 0.45), (2, 1.0)):
                 sel = sorted((r for r in rows if r["method"] == method and r["kind"] == kind

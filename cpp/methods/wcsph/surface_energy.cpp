@@ -8,20 +8,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/room.hpp"
 #include "simd/lanes.hpp"
 #include "terms/surface_energy.hpp"
 
 namespace sphfluid {
 
 namespace {
-
-// Room for n entries, a quarter more when it must grow: the node window
-// follows the fluid's bounding box, and a drop that spreads step by step
-// should not reallocate at every step.
-template <class T>
-void room(std::vector<T>& v, std::size_t n) {
-  if (v.capacity() < n) v.reserve(n + n / 4);
-}
 
 // Whether the volumes and their pair term run eight candidates at a time over
 // runs of the bin order (where the lanes run, and without a periodic axis).
