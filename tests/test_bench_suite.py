@@ -166,3 +166,17 @@ def test_the_suite_shows_a_bar_over_its_runs(monkeypatch, capsys):
     # 2 rounds of the dam break and the bare loop on 1 and 2 threads, and the
     # time to solution: 10 runs, each with its line above the bar
     assert "| 10/10 runs [" in err and err.count("[2/2] ") == 5
+
+
+def test_report_names_the_command_that_reproduces_it(tmp_path):
+    """The report's command carries every option that chose what was run."""
+    from types import SimpleNamespace
+
+    args = SimpleNamespace(out=tmp_path, write=None, sizes="1000,10000", tts_sizes="10000",
+                           method="dfsph", method_given=True)
+    text = bench_suite.suite_report(args, [], [], 1, 0.0)
+    assert ("`sphfluid bench --suite --method dfsph --sizes 1000,10000 --tts-sizes 10000 "
+            "--repeat 1`") in text
+    args.method_given, args.tts_sizes = False, None
+    text = bench_suite.suite_report(args, [], [], 3, 0.0)
+    assert "`sphfluid bench --suite --sizes 1000,10000`" in text

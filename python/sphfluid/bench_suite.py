@@ -381,11 +381,14 @@ def suite_report(args, rows: list[dict], tts: list[dict], repeat: int, start: fl
         f"Machine: {machine()}. {source_line()}. Build: {info['compiler']}, "
         f"{info['build_type']}, {target()}, OpenMP {info['openmp']}, {info['real']}. "
         f"Date: {time.strftime('%Y-%m-%d')}. Command: `sphfluid bench --suite"
+        + (f" --method {args.method}" if getattr(args, "method_given", False) else "")
         + (f" --sizes {args.sizes}" if args.sizes else "")
+        + (f" --tts-sizes {args.tts_sizes}" if getattr(args, "tts_sizes", None) else "")
         + (f" --repeat {repeat}" if repeat != 3 else "") + "` "
         f"({time.perf_counter() - start:.0f} s in all).",
         "",
-        ("Fixed dt (the seed: 2e-4 s x dx/0.02 m; wcsph: 0.3 (h/2)/c0), warm-up then about "
+        ("Fixed dt (the seed: 2e-4 s x dx/0.02 m; wcsph: 0.3 (h/2)/c0; dfsph: its adaptive "
+        "step, water's viscosity), warm-up then about "
         "2e7 particle-steps timed (20 to 2,000 steps; the bare loop within its first "
         f"{BARE_STEPS} steps, as the seed's free block without viscosity blows up after "
         f"about 330), each configuration in a fresh process, {repeat} time(s) in rounds over "
