@@ -50,6 +50,18 @@ def test_check_bounds_reports_a_worse_error_and_a_failed_run():
     assert "over the bound" in problems[0] and "did not complete" in problems[1]
 
 
+def test_bounds_summary_says_what_it_checked():
+    """A run with no bound (dfsph today) is not reported as within one."""
+    (case, method, n), bound = next(iter(runner.QUICK_BOUNDS.items()))
+    fine = Result(case, method, n, 0.1, error=0.5 * bound)
+    free = Result(case, "dfsph", n, 0.1, error=10 * bound)
+    peer = Result(case, "EDAC", n, 0.1, error=0.1, peer="pysph")
+    assert runner.bounds_summary([fine, free, peer]) == (
+        "every error is within its quick-mode bound (1 run checked; 1 with no bound)")
+    assert runner.bounds_summary([free, peer]) == (
+        "no run has a quick-mode bound: nothing was checked")
+
+
 def test_convergence_order_recovers_a_known_order():
     runs = [Result("c", "wcsph", n, 1.0 / n, error=3.0 * (1.0 / n) ** 2) for n in (10, 20, 40)]
     assert runner.convergence_order(runs) == pytest.approx(2.0)
