@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "boundary/damping.hpp"
 #include "boundary/flows.hpp"
 #include "boundary/ghosts.hpp"
 #include "boundary/walls.hpp"
@@ -46,6 +47,7 @@ class Context {
   PeriodicBox box;
   WallSet walls;
   Flows flows;
+  Damping damping;  // the damping zones (boundary/damping.hpp)
   NeighbourSearch search;
   Ghosts ghosts;
   PhaseTimer timer;
@@ -110,7 +112,8 @@ class Context {
   // is known, into a fresh buffer: a non-finite result keeps the half-step
   // velocities (InstabilityError).
   void add_gravity_and_kick(Real half, const Vec2* extra);
-  // After the drift: moving walls move to the step's end; the outlets act;
+  // After the drift: moving walls move to the step's end; the damping zones
+  // slow what is in them; the outlets act;
   // particles that left the domain are removed (and counted), unless the
   // integration saw every particle inside; then the sinks, emitters and
   // inlets act (exchange).
@@ -119,6 +122,7 @@ class Context {
       walls.move_to(time_ + last_dt_);
       ghosts.stale();
     }
+    if (damping.any()) damping.apply(ps.x.data(), ps.v.data(), size(), last_dt_, team());
     // (what passed an outlet's buffer leaves as out, even across the domain's edge)
     if (flows.has_outlets()) hold_outlets();
     if (!all_inside_) remove_outside_domain();

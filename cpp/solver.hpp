@@ -60,7 +60,8 @@ class Solver {
     ctx_.ps.own_fields();
     method_->evaluate();
   }
-  // Replace all particles; ids empty gives 0..n-1.
+  // Replace all particles; ids empty gives 0..n-1. An inlet's or outlet's
+  // buffer that the new particles leave empty is filled again (as at the start).
   void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
   // Append particles with fresh ids (one above the largest in use).
   void add_particles(const std::vector<Vec2>& positions, const std::vector<Vec2>& velocities);
@@ -81,6 +82,10 @@ class Solver {
   // std::invalid_argument for one that cannot work.
   void set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks,
                  std::vector<Outlet> outlets, Real spacing);
+  // Replace the damping zones (boundary/damping.hpp); they act from the next
+  // step. Throws std::invalid_argument for one that cannot work.
+  void set_damping(std::vector<DampingZone> zones) { ctx_.damping.set(std::move(zones)); }
+  const Damping& damping() const { return ctx_.damping; }
   const Flows& flows() const { return ctx_.flows; }
   const Context::Balance& balance() const { return ctx_.balance; }
   void set_threads(int threads);

@@ -203,3 +203,26 @@ def test_the_run_summary_gives_the_balance_with_what_went_out(tmp_path, capsys):
     numbers = [int(w.replace(",", "")) for w in line.split() if w.replace(",", "").isdigit()]
     placed, came_in, went_out, sunk, lost, now = numbers
     assert went_out > 0 and placed + came_in - went_out - sunk - lost == now
+
+
+def test_set_state_fills_a_buffer_it_leaves_empty_and_keeps_a_held_one():
+    """The fluid between the buffers given again without them: both buffers are
+    filled as at the start (the inlet's 3 rows counted in, the outlet's placed)
+    and the balance holds; the whole state given again (the viewer's push)
+    adds nothing."""
+    sim = sphfluid.Simulation(channel("wcsph"), threads=1)
+    sim.advance_to(0.2)
+    x, v = sim.positions, sim.velocities
+    n = sim.n_particles
+    sim.set_state(x, v, sim.ids)  # buffers held: nothing added
+    assert sim.n_particles == n and balanced(sim)
+    inside = (x[:, 0] > 0.03) & (x[:, 0] < 0.37)
+    before = sim.balance
+    sim.set_state(x[inside], v[inside])
+    after = sim.balance
+    assert np.count_nonzero(in_buffer(sim)) == 30
+    assert np.count_nonzero(sim.positions[:, 0] > 0.37) == 30
+    assert after["in"] == before["in"] + 30 and balanced(sim)
+    assert sim.n_particles == np.count_nonzero(inside) + 60
+    sim.advance_to(0.4)  # it flows on from there
+    assert balanced(sim) and np.isfinite(sim.positions).all()

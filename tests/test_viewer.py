@@ -353,3 +353,94 @@ def test_the_scenes_probes_are_marked(display, mode):
     del d["probes"]
     img, _ = render(sphfluid.Simulation(d), mode, size=(500, 400))
     assert not np.all(img == PROBE, axis=2).any()
+
+
+def editor_for(scene, size=(500, 400)):
+    from sphfluid.viewer import Editor
+
+    sim = sphfluid.Simulation(scene)
+    renderer = Renderer(sim, size, "speed")
+    return sim, Editor(sim, renderer), lambda p: screen_of(scene, size, p)
+
+
+def drag(editor, a, b) -> str:
+    editor.begin_drag(*a)
+    return editor.end_drag(*b)
+
+
+def test_the_editor_places_flows_on_the_drag_and_ctrl_s_keeps_them(display, tmp_path):
+    """K, I, O and B arm the next left-drag (then walls again): a sink's rectangle
+    corner to corner, an inlet's and an outlet's line with the flow to the drag's
+    right, a damping zone from where it begins to full strength; each acts in the
+    run, and the saved scene loads with them."""
+    scene = falling_block(tmp_path)
+    sim, editor, px = editor_for(scene)
+    assert editor.arm("sink") and editor.tool == "sink"
+    assert drag(editor, px((0.02, 0.02)), px((0.98, 0.15))) == "sink added (Ctrl+S saves it)"
+    assert editor.tool == "wall"
+    (sink,) = sim.scene.sinks
+    assert np.allclose(sink.bounds(), ((0.02, 0.02), (0.98, 0.15)), atol=0.01)
+    editor.arm("inlet")
+    assert drag(editor, px((0.3, 0.2)), px((0.3, 0.45))) == "inlet added (Ctrl+S saves it)"
+    (inlet,) = sim.scene.inlets
+    assert np.allclose(inlet.unit(), (1.0, 0.0), atol=0.02)  # upwards: to the right
+    assert inlet.width == pytest.approx(0.25, abs=0.01)
+    editor.arm("outlet")
+    drag(editor, px((0.75, 0.45)), px((0.75, 0.2)))  # downwards: to the left
+    (outlet,) = sim.scene.outlets
+    assert np.allclose(outlet.unit(), (-1.0, 0.0), atol=0.02)
+    editor.arm("damping zone")
+    drag(editor, px((0.6, 0.5)), px((0.9, 0.5)))
+    (zone,) = sim.scene.damping_zones
+    assert np.allclose([zone.start, zone.end], [(0.6, 0.5), (0.9, 0.5)], atol=0.01)
+    sim.run(0.8)
+    b = sim.balance
+    assert b["in"] > 0 and b["sunk"] > 0  # the inlet fed, the block fell into the sink
+    path = save_scene(sim, tmp_path / "edited.json")
+    again = sphfluid.load_scene(path)
+    assert (again.sinks, again.inlets, again.outlets, again.damping_zones) == (
+        sim.scene.sinks, sim.scene.inlets, sim.scene.outlets, sim.scene.damping_zones)
+
+
+def test_the_editor_refuses_what_the_scene_format_refuses_and_deletes(display, tmp_path):
+    """A sink over the initial fluid, an inlet whose buffer holds initial fluid or
+    fluid now are refused with the reason, nothing changed; X deletes the sink the
+    cursor is in, the inlet line and the damping zone's first line under it."""
+    scene = falling_block(tmp_path)
+    sim, editor, px = editor_for(scene)
+    editor.arm("sink")
+    msg = drag(editor, px((0.4, 0.7)), px((0.6, 0.8)))
+    assert msg.startswith("sink not added: ") and "initial fluid" in msg
+    assert sim.scene.sinks == () and editor.tool == "sink"  # still armed: try again
+    editor.arm("inlet")
+    msg = drag(editor, px((0.5, 0.95)), px((0.5, 0.55)))  # its buffer over the block
+    assert msg.startswith("inlet not added: ") and sim.scene.inlets == ()
+    sim.run(0.6)  # the block lies on the floor: a buffer there would overlap it
+    msg = drag(editor, px((0.5, 0.02)), px((0.5, 0.25)))
+    assert msg.startswith("inlet not added: ") and "the fluid now" in msg, msg
+    sim.reset()
+    n = sim.n_particles
+    editor.arm("sink")
+    drag(editor, px((0.02, 0.02)), px((0.98, 0.15)))
+    editor.arm("inlet")
+    drag(editor, px((0.3, 0.2)), px((0.3, 0.45)))
+    editor.arm("damping zone")
+    drag(editor, px((0.6, 0.5)), px((0.9, 0.5)))
+    assert sim.n_particles > n  # the inlet's buffer
+    assert editor.delete_at(*px((0.3, 0.3))) == "inlet deleted" and sim.scene.inlets == ()
+    assert editor.delete_at(*px((0.6, 0.3))) == "damping zone deleted"
+    assert sim.scene.damping_zones == ()
+    assert editor.delete_at(*px((0.5, 0.1))) == "sink deleted" and sim.scene.sinks == ()
+    assert editor.delete_at(*px((0.5, 0.7))) == ""  # nothing there
+
+
+def test_the_tool_keys_arm_the_next_drag(tmp_path):
+    scene = falling_block(tmp_path)
+    size = (500, 400)
+    a, b = screen_of(scene, size, (0.02, 0.02)), screen_of(scene, size, (0.98, 0.15))
+    events = {1: hover_and_press(a, "K_k"),
+              2: [lambda pg: pg.event.Event(pg.MOUSEBUTTONDOWN, button=1, pos=a)],
+              3: [lambda pg: pg.event.Event(pg.MOUSEBUTTONUP, button=1, pos=b)],
+              4: hover_and_press(a, "K_b"), 5: hover_and_press(a, "K_b")}
+    sim = scripted_view(scene, events, frames=7, size=size)
+    assert len(sim.scene.sinks) == 1 and sim.scene.walls == scene.walls

@@ -194,6 +194,25 @@ void def_editing(SolverClass& c) {
           "which moves with it), each [[t, value], ...]; motion_of[k] is segment k's "
           "motion or -1. The walls as they are now are the drawn ones.")
       .def(
+          "set_damping",
+          [](Solver& s, const py::list& zones) {
+            std::vector<DampingZone> zs;
+            for (const py::handle& item : zones) {
+              const py::dict d = item.cast<py::dict>();
+              DampingZone z;
+              z.from = to_point(d["from"]);
+              z.to = to_point(d["to"]);
+              z.strength = d["strength"].cast<Real>();
+              zs.push_back(z);
+            }
+            s.set_damping(std::move(zs));
+          },
+          py::arg("zones"),
+          "Replace the damping zones, each a dict with 'from' and 'to' [x, y] (m) and "
+          "'strength' (1/s): every step a particle past the line through 'from' (across "
+          "from -> to) keeps 1 - dt s^2 strength of its velocity (at least 0), s its "
+          "distance past the line over |to - from|, 1 beyond 'to'.")
+      .def(
           "set_flows",
           [](Solver& s, const py::list& emitters, const py::list& sinks, Real spacing,
              const py::list& outlets) {

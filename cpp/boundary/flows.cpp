@@ -227,6 +227,29 @@ void Flows::fill_outlets(std::vector<Vec2>& x) {
   }
 }
 
+void Flows::unfill_empty_buffers(const Vec2* x, Index n) {
+  auto holds = [&](const Vec2& at, const Vec2& dir, Real from, Real to, Real half) {
+    const Vec2 across(-dir.y(), dir.x());
+    for (Index i = 0; i < n; ++i) {
+      const Vec2 rel = x[i] - at;
+      const Real along = rel.dot(dir);
+      if (along >= from && along < to && std::abs(rel.dot(across)) <= half) return true;
+    }
+    return false;
+  };
+  for (std::size_t k = 0; k < emitters_.size(); ++k) {
+    const Emitter& e = emitters_[k];
+    if (e.buffer > 0 && filled_[k] &&
+        !holds(e.at, e.direction, -e.buffer, 0, Real(0.5) * Real(row_count(e)) * dx_))
+      filled_[k] = 0;
+  }
+  for (std::size_t k = 0; k < outlets_.size(); ++k) {
+    const Outlet& o = outlets_[k];
+    if (outlet_filled_[k] && !holds(o.at, o.direction, 0, o.depth, Real(0.5) * o.width))
+      outlet_filled_[k] = 0;
+  }
+}
+
 bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
   for (std::size_t k = 0; k < emitters_.size(); ++k) {
     const Emitter& e = emitters_[k];

@@ -87,6 +87,10 @@ class Flows {
   // rest on the lattice (rows a spacing apart from half a spacing past the
   // line: the fluid runs on past it at the start); appended to x.
   void fill_outlets(std::vector<Vec2>& x);
+  // After the particles were replaced (Solver::set_state): an inlet's or
+  // outlet's buffer that holds none of the n positions x is to be filled
+  // again (fill_inlets, fill_outlets); one that holds some keeps them.
+  void unfill_empty_buffers(const Vec2* x, Index n);
   // A particle in an inlet's buffer (after this step's rows, at time t):
   // its position snapped to the buffer's lattice and its velocity the
   // inflow's; false (nothing changed) elsewhere.

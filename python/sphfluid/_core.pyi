@@ -156,6 +156,11 @@ class Solver(metaclass=_Pybind11Type):
         translation, m) and 'angle' (radians, counterclockwise about 'about' [x, y],
         which moves with it), each [[t, value], ...]; motion_of[k] is segment k's
         motion or -1. The walls as they are now are the drawn ones."""
+    def set_damping(self, zones: list[dict[str, Any]]) -> None:
+        """Replace the damping zones, each a dict with 'from' and 'to' [x, y] (m) and
+        'strength' (1/s): every step a particle past the line through 'from' (across
+        from -> to) keeps 1 - dt s^2 strength of its velocity (at least 0), s its
+        distance past the line over |to - from|, 1 beyond 'to'."""
     def set_flows(self, emitters: list[dict[str, Any]], sinks: list[dict[str, Any]],
                   spacing: float, outlets: list[dict[str, Any]] = []) -> None:
         """Replace the emitters (and inlets), sinks and outlets; they act from the

@@ -1,5 +1,6 @@
-"""Emitters, inlets, outlets, sinks and moving walls: the scene's ``"emitters"``,
-``"inlets"``, ``"outlets"``, ``"sinks"`` and a polyline's ``"motion"`` (extensions).
+"""Emitters, inlets, outlets, sinks, damping zones and moving walls: the scene's
+``"emitters"``, ``"inlets"``, ``"outlets"``, ``"sinks"``, ``"damping_zones"`` and a
+polyline's ``"motion"`` (extensions).
 
 An emitter is a nozzle that emits a jet on the lattice of the scene's spacing:
 rows of round(width / spacing) particles across, a new row whenever the last
@@ -16,8 +17,11 @@ crossed with through a buffer as deep, and leave past its far side (counted
 as out). A wall's motion moves it as a rigid body along
 tables of (time, value): its drawn position translated and turned about a
 point; the core meets particles in each moving wall's own frame, so none
-passes through it, and the boundary terms take velocities relative to it.
-docs/scene-format.md, "Emitters and sinks", "Inlets and outlets" and "Moving walls".
+passes through it, and the boundary terms take velocities relative to it. A
+damping zone slows the fluid beyond a line, more the deeper in, so that waves
+end there without reflecting (a numerical beach).
+docs/scene-format.md, "Emitters and sinks", "Inlets and outlets", "Damping zones"
+and "Moving walls".
 """
 from __future__ import annotations
 
@@ -315,6 +319,78 @@ def read_outlets(v, raw: list, lo, hi, depth: float | None, walls: list) -> list
     return out
 
 
+DEFAULT_DAMPING = 10.0  # 1/s at a damping zone's far end (DualSPHysics's default)
+
+
+@dataclass(frozen=True)
+class DampingZone:
+    """Where waves end without reflecting: beyond the line through ``start``
+    (across start -> end) each step keeps 1 - dt s^2 strength of a particle's
+    velocity, s its distance past the line over |end - start| (1 beyond
+    ``end``): Altomare et al. (2017)'s damping zone (cpp/boundary/damping.hpp).
+    The scene's keys are "from" and "to"."""
+
+    start: tuple  # (x, y), m: on the line where it begins
+    end: tuple  # (x, y), m: where it reaches its full strength
+    strength: float = DEFAULT_DAMPING  # 1/s
+    name: str = ""
+
+    def factor(self, points: np.ndarray, dt: float) -> np.ndarray:
+        """The share of their velocity particles at ``points`` (n, 2) keep over dt."""
+        axis = np.subtract(self.end, self.start)
+        s = np.minimum((np.asarray(points, float) - self.start) @ axis / (axis @ axis), 1.0)
+        return np.where(s > 0, np.maximum(1.0 - dt * s * s * self.strength, 0.0), 1.0)
+
+    def region(self, lo, hi) -> np.ndarray:
+        """The part of the domain [lo, hi] it covers, as a polygon (k, 2)."""
+        box = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]], float)
+        axis = np.subtract(self.end, self.start)
+        side = (box - self.start) @ axis  # >= 0: inside
+        out = []
+        for k in range(4):  # the box clipped by the half-plane
+            a, b, sa, sb = box[k], box[(k + 1) % 4], side[k], side[(k + 1) % 4]
+            if sa >= 0:
+                out.append(a)
+            if (sa >= 0) != (sb >= 0):
+                out.append(a + (b - a) * sa / (sa - sb))
+        return np.array(out).reshape(-1, 2)
+
+    def to_core(self) -> dict:
+        return {"from": list(self.start), "to": list(self.end), "strength": self.strength}
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {"name": self.name} if self.name else {}
+        out.update({"from": list(self.start), "to": list(self.end)})
+        if self.strength != DEFAULT_DAMPING:
+            out["strength"] = self.strength
+        return out
+
+
+def read_damping(v, raw: list, lo, hi) -> list[DampingZone]:
+    """The scene's "damping_zones" (the schema has checked their shape): 'to'
+    on 'from', a zone that covers none of the domain, by JSON path."""
+    out = []
+    for i, item in enumerate(raw):
+        path = f"damping_zones[{i}]"
+        if not (isinstance(item, dict) and v.ok(path)):
+            continue
+        start, end = v.point(item, "from", path), v.point(item, "to", path)
+        strength = v.number(item, "strength", f"{path}.", DEFAULT_DAMPING)
+        if not (start and end and strength):
+            continue
+        if not math.hypot(end[0] - start[0], end[1] - start[1]) > 0:
+            v.fail(f"{path}.to", f"must differ from 'from' ({list(start)}): the two points give "
+                   "the zone's direction and the length of its ramp")
+            continue
+        zone = DampingZone(start, end, float(strength), str(item.get("name", "")))
+        if lo and hi and len(zone.region(lo, hi)) < 3:
+            v.fail(f"{path}.from", f"the zone (beyond {list(start)}, towards {list(end)}) "
+                   "covers none of the domain: it would do nothing")
+            continue
+        out.append(zone)
+    return out
+
+
 def _buffer(depth: float) -> str:
     return f"its buffer ({depth:g} m deep: two kernel supports)"
 
@@ -339,19 +415,22 @@ def _check_zone(v, corners: np.ndarray, path: str, what: str, lo, hi, walls: lis
 
 
 def check_buffers(v, inlets: list, outlets: list, dx: float, depth: float,
-                  initial: np.ndarray | None) -> None:
+                  initial: np.ndarray | None, fluid: str = "the initial fluid",
+                  paths: tuple[list[int], list[int]] | None = None) -> None:
     """No initial fluid in an inlet's or an outlet's buffer (an inlet facing out of
-    the fluid, or an outlet inside it)."""
+    the fluid, or an outlet inside it). ``fluid`` names the points (``initial``);
+    ``paths`` the inlets' and outlets' indices in the scene (default 0, 1, ...)."""
     if initial is None or not len(initial):
         return
-    zones = [(f"inlets[{i}]", e.zone(dx, depth), "faces out of the fluid: its buffer, behind "
-              "the line, holds") for i, e in enumerate(inlets)]
-    zones += [(f"outlets[{i}]", o.zone(depth), "lies inside the fluid: its buffer holds")
-              for i, o in enumerate(outlets)]
+    ins, outs = paths or (list(range(len(inlets))), list(range(len(outlets))))
+    zones = [(f"inlets[{k}]", e.zone(dx, depth), "faces out of the fluid: its buffer, behind "
+              "the line, holds") for k, e in zip(ins, inlets)]
+    zones += [(f"outlets[{k}]", o.zone(depth), "lies inside the fluid: its buffer holds")
+              for k, o in zip(outs, outlets)]
     for path, corners, what in zones:
         inside = _in_rectangle(corners, initial, 0.25 * dx)
         if inside:
-            v.fail(path, f"{what} {inside} particle(s) of the initial fluid; its direction "
+            v.fail(path, f"{what} {inside} particle(s) of {fluid}; its direction "
                    "points into the domain's fluid for an inlet, out of it for an outlet")
 
 

@@ -211,6 +211,7 @@ class Scene:
     sinks: tuple = ()  # of Region: regions removing the particles entering them (extension)
     inlets: tuple = ()  # of flows.Emitter: lines fed from a held buffer (extension)
     outlets: tuple = ()  # of flows.Outlet: lines letting fluid out through a buffer (extension)
+    damping_zones: tuple = ()  # of flows.DampingZone: where waves end (extension)
     source: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -311,6 +312,8 @@ class Scene:
             out["inlets"] = [e.to_dict() for e in self.inlets]
         if self.outlets:
             out["outlets"] = [o.to_dict() for o in self.outlets]
+        if self.damping_zones:
+            out["damping_zones"] = [z.to_dict() for z in self.damping_zones]
         return out
 
     def buffer_depth(self) -> float:
@@ -462,6 +465,11 @@ class _Validator:
             n_segments = None if any(p.startswith("walls") for p in self.refused) else len(walls)
             probes = read_probes(self, d["probes"], domain.lo, domain.hi, n_segments)
         emitters, sinks, inlets, outlets = self.flows(d, domain, res, walls, solver, fluid)
+        damping = []
+        if "damping_zones" in d:
+            from .flows import read_damping
+
+            damping = read_damping(self, self.items(d, "damping_zones"), domain.lo, domain.hi)
 
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
@@ -492,7 +500,7 @@ class _Validator:
                       pressure_solve=solver.pressure_solve,
                       probes=probes, emitters=tuple(emitters),
                       sinks=tuple(sinks), inlets=tuple(inlets), outlets=tuple(outlets),
-                      source=self.source)
+                      damping_zones=tuple(damping), source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
         if sinks or inlets or outlets:
             from .flows import check_buffers, check_sinks

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _core
 from .flows import Emitter, sink_to_core
-from .scene import AUTO_SHIFTING, Scene, load_scene
+from .scene import AUTO_SHIFTING, Scene, SceneError, load_scene
 
 InstabilityError = _core.InstabilityError
 RETRIES = 5  # on_instability "retry": dt/2, dt/4, ... dt/32 before giving up
@@ -213,6 +213,8 @@ class Simulation:
             self._set_wall_motions()
         if self.scene.emitters or self.scene.sinks or self.scene.inlets or self.scene.outlets:
             self._set_flows()
+        if self.scene.damping_zones:
+            self._solver.set_damping([z.to_core() for z in self.scene.damping_zones])
 
     def _set_wall_motions(self) -> None:
         index: dict = {}  # each distinct motion once
@@ -365,7 +367,9 @@ class Simulation:
     @_one_thread
     def set_state(self, positions, velocities, ids=None) -> None:
         """Replace all particles (N may change). ids default to 0..N-1; given,
-        they must be distinct integers >= 0 (ValueError otherwise)."""
+        they must be distinct integers >= 0 (ValueError otherwise). An inlet's or
+        outlet's buffer the new particles leave empty is filled again, as at the
+        start (counted in ``balance``); one they hold particles in keeps them."""
         if ids is not None:
             given = np.asarray(ids)
             if given.size and not np.issubdtype(given.dtype, np.integer):
@@ -408,6 +412,46 @@ class Simulation:
         scene = load_scene(data)  # every check a scene file gets
         self.scene = dataclasses.replace(self.scene, emitters=scene.emitters)
         self._set_flows()
+
+    @_one_thread
+    def set_flows(self, *, sinks=None, inlets=None, outlets=None, damping_zones=None) -> None:
+        """Replace the scene's sinks (``scene.Region``), inlets (``flows.Emitter``),
+        outlets (``flows.Outlet``) or damping zones (``flows.DampingZone``); those
+        not given stay. Checked as a scene's, and a new inlet's or outlet's buffer
+        against the fluid as it is now (it is filled at once): SceneError naming
+        each problem by its JSON path, the run unchanged. Effective from the next
+        step; an inlet or outlet kept unchanged keeps its buffer."""
+        from .flows import check_buffers
+
+        data = self.scene.to_dict()
+        given = {"sinks": sinks, "inlets": inlets, "outlets": outlets,
+                 "damping_zones": damping_zones}
+        for key, items in given.items():
+            if items is not None:
+                data[key] = [x.to_dict() for x in items]
+                if not data[key]:
+                    del data[key]
+        scene = load_scene(data)  # every check a scene file gets
+        new_in = [k for k, e in enumerate(scene.inlets) if e not in self.scene.inlets]
+        new_out = [k for k, o in enumerate(scene.outlets) if o not in self.scene.outlets]
+        if new_in or new_out:
+            problems: list[str] = []
+
+            class _Collect:
+                def fail(self, path: str, msg: str) -> None:
+                    problems.append(f"{path}: {msg}")
+
+            check_buffers(_Collect(), [scene.inlets[k] for k in new_in],
+                          [scene.outlets[k] for k in new_out], scene.spacing,
+                          scene.buffer_depth(), self.positions, "the fluid now",
+                          (new_in, new_out))
+            if problems:
+                raise SceneError(problems)
+        self.scene = dataclasses.replace(self.scene, sinks=scene.sinks, inlets=scene.inlets,
+                                         outlets=scene.outlets,
+                                         damping_zones=scene.damping_zones)
+        self._set_flows()
+        self._solver.set_damping([z.to_core() for z in scene.damping_zones])
 
     @property
     def balance(self) -> dict:

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .flows import Emitter
-from .scene import Scene, SceneError, load_scene
+from .flows import DampingZone, Emitter, Outlet
+from .scene import Region, Scene, SceneError, load_scene
 from .simulation import InstabilityError, Simulation
 from .surface import polygons as liquid_polygons
 
@@ -34,7 +34,10 @@ MODE_LABELS = {
 }
 HELP = [
     "left-drag  draw a wall (ends snap to wall ends)",
-    "X or Delete  delete the wall under the cursor",
+    "I / O  the next left-drag places an inlet / outlet (flow to the drag's right)",
+    "K  the next left-drag places a sink (a rectangle)",
+    "B  the next left-drag places a damping zone (from where it begins to full strength)",
+    "X or Delete  delete the wall (or sink, inlet, outlet, zone) under the cursor",
     "E  start / stop pouring at the cursor (an emitter Ctrl+S saves)",
     "right-drag  push the fluid",
     "wheel  zoom at the cursor   middle-drag  pan   0  fit the domain",
@@ -65,6 +68,7 @@ RIM = (180, 230, 255)  # and its surface
 PROBE = (255, 170, 40)  # the scene's probes
 EMITTER = (120, 230, 255)  # the scene's emitters
 SINK = (235, 90, 200)  # the scene's sinks
+DAMPING = (90, 200, 235)  # the scene's damping zones
 SMOOTH_FINE = 10_000  # particles up to which the liquid's grid is half a spacing
 DIVERGING = ramp([[40, 80, 200], [120, 170, 230], [235, 235, 235], [240, 150, 100],
                   [200, 40, 40]])
@@ -166,10 +170,19 @@ class Renderer:
             self.draw_colour_bar(surface)
 
     def draw_flows(self, surface) -> None:
-        """The sinks and the outlets' and inlets' buffers, outlined, and the emitters
-        and inlets: each nozzle's row as a bar with an arrow along the jet, bright
-        while it emits, dim before its start and after its stop."""
+        """The sinks and the outlets' and inlets' buffers, outlined, the damping
+        zones (where they begin and where they reach full strength), and the
+        emitters and inlets: each nozzle's row as a bar with an arrow along the
+        jet, bright while it emits, dim before its start and after its stop."""
         pg, cam, scene = self.pygame, self.camera, self.sim.scene
+        lo, hi = scene.domain_min, scene.domain_max
+        for z in scene.damping_zones:
+            full = dataclasses.replace(z, start=z.end,
+                                       end=tuple(2 * np.asarray(z.end) - z.start))
+            for ring in (z.region(lo, hi), full.region(lo, hi)):
+                if len(ring) >= 3:
+                    pg.draw.polygon(surface, DAMPING,
+                                    self.screen_ring(np.vstack([ring, ring[:1]])), 1)
         for ring in self.sink_rings():
             pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 2)
         t, dx = self.sim.time, scene.spacing
@@ -313,17 +326,28 @@ class Renderer:
 
 
 class Editor:
-    """The terrain tools, in screen coordinates: draw and delete walls, pour, push."""
+    """The terrain tools, in screen coordinates: draw and delete walls, pour,
+    push; place and delete sinks, inlets, outlets and damping zones."""
 
     SNAP_PX = 12  # end points this close to an existing one snap onto it
     PICK_PX = 10  # a wall this close to the cursor is the one under it
     EMIT_SPEED = 1.0  # m/s, straight down
+    INFLOW_SPEED = 0.5  # m/s, an inlet placed here (the saved scene can change it)
+    # What the next left-drag places (the keys of HELP), then walls again.
+    TOOLS = ("wall", "inlet", "outlet", "sink", "damping zone")
+    HINTS = {"wall": "left-drag draws walls",
+             "inlet": "drag the inlet's line: the fluid enters towards the drag's right",
+             "outlet": "drag the outlet's line: the fluid leaves towards the drag's right",
+             "sink": "drag the sink's rectangle, corner to corner",
+             "damping zone": "drag from where the zone begins to where it is at full "
+                             "strength"}
 
     def __init__(self, sim: Simulation, renderer: Renderer):
         self.sim = sim
         self.renderer = renderer
-        self.start: tuple[float, float] | None = None  # a wall being drawn (world, m)
+        self.start: tuple[float, float] | None = None  # a drag's start (world, m)
         self.emitter: int | None = None  # the scene's emitter pouring now (E)
+        self.tool = "wall"
 
     def world(self, px: float, py: float) -> tuple[float, float]:
         return self.renderer.camera.to_world(px, py)
@@ -339,21 +363,57 @@ class Editor:
                 return tuple(map(float, ends[i]))
         return self.world(px, py)
 
-    def begin_wall(self, px: float, py: float) -> None:
-        self.start = self.snap(px, py)
+    def arm(self, tool: str) -> str:
+        """Make the next left-drag place a ``tool`` (again: walls); returns the hint."""
+        self.tool = "wall" if tool == self.tool else tool
+        return self.HINTS[self.tool]
 
-    def end_wall(self, px: float, py: float) -> bool:
-        """Finish the wall being drawn; True if one was added."""
+    def begin_drag(self, px: float, py: float) -> None:
+        self.start = self.snap(px, py) if self.tool == "wall" else self.world(px, py)
+
+    def end_drag(self, px: float, py: float) -> str:
+        """Finish the drag: a wall, or what the armed tool places (then walls again).
+        Returns what happened, for the status line ("" for a click)."""
         if self.start is None:
-            return False
-        a, b = self.start, self.snap(px, py)
+            return ""
+        tool = self.tool
+        a = self.start
+        b = self.snap(px, py) if tool == "wall" else self.world(px, py)
         self.start = None
         sa = np.array(self.renderer.camera.to_screen(np.asarray(a)))
         sb = np.array(self.renderer.camera.to_screen(np.asarray(b)))
         if np.hypot(*(sa - sb)) < 4:  # a click, not a drag
-            return False
-        self.sim.add_wall(a, b)
-        return True
+            return ""
+        try:
+            if tool == "wall":
+                self.sim.add_wall(a, b)
+                return f"wall added ({len(self.sim.scene.walls)} walls)"
+            self.place(tool, a, b)
+        except ValueError as e:  # SceneError is one
+            return f"{tool} not added: {str(e).splitlines()[-1].strip()}"
+        self.tool = "wall"
+        return f"{tool} added (Ctrl+S saves it)"
+
+    def place(self, tool: str, a, b) -> None:
+        """Add a ``tool`` dragged from a to b (world, m) to the scene and the run."""
+        sim, scene = self.sim, self.sim.scene
+        if tool == "sink":
+            lo, hi = tuple(np.minimum(a, b).tolist()), tuple(np.maximum(a, b).tolist())
+            sim.set_flows(sinks=[*scene.sinks, Region("rectangle", (lo, hi))])
+        elif tool == "damping zone":
+            sim.set_flows(damping_zones=[*scene.damping_zones, DampingZone(a, b)])
+        else:  # a line from a to b, the flow towards its right
+            d = np.subtract(b, a)
+            at = tuple((0.5 * np.add(a, b)).tolist())
+            direction = (float(d[1]), float(-d[0]))
+            width = float(np.hypot(*d))
+            if tool == "inlet":
+                inlet = Emitter(at=at, direction=direction, width=width,
+                                speed=self.INFLOW_SPEED, name=f"inlet {len(scene.inlets) + 1}")
+                sim.set_flows(inlets=[*scene.inlets, inlet])
+            else:
+                outlet = Outlet(at, direction, width, f"outlet {len(scene.outlets) + 1}")
+                sim.set_flows(outlets=[*scene.outlets, outlet])
 
     def wall_at(self, px: float, py: float) -> int | None:
         walls = self.sim.scene.walls
@@ -370,12 +430,45 @@ class Editor:
         i = int(np.argmin(d))
         return i if d[i] <= self.PICK_PX else None
 
-    def delete_wall_at(self, px: float, py: float) -> bool:
+    def delete_at(self, px: float, py: float) -> str:
+        """Delete the wall under the cursor, else the sink it is in, the inlet or
+        outlet line or the damping zone's first line under it. Returns what
+        happened ("" for nothing)."""
+        sim, scene, cam = self.sim, self.sim.scene, self.renderer.camera
         i = self.wall_at(px, py)
-        if i is None:
-            return False
-        self.sim.remove_wall(i)
-        return True
+        if i is not None:
+            sim.remove_wall(i)
+            return f"wall deleted ({len(sim.scene.walls)} walls)"
+        x, y = self.world(px, py)
+        for k, r in enumerate(scene.sinks):
+            if r.contains(np.array([x]), np.array([y]), 0.0)[0]:
+                sim.set_flows(sinks=[s for j, s in enumerate(scene.sinks) if j != k])
+                return "sink deleted"
+
+        def near(a, b) -> bool:  # the cursor within PICK_PX of the segment a-b
+            sa, sb = (np.array(cam.to_screen(np.asarray(p, float))) for p in (a, b))
+            ab = sb - sa
+            t = np.clip((np.array([px, py]) - sa) @ ab / max(ab @ ab, 1e-12), 0.0, 1.0)
+            return bool(np.hypot(*(sa + t * ab - [px, py])) <= self.PICK_PX)
+
+        for key in ("inlets", "outlets"):
+            items = getattr(scene, key)
+            for k, e in enumerate(items):
+                u = e.unit()
+                half = 0.5 * (e.width or scene.spacing) * np.array([-u[1], u[0]])
+                if near(np.subtract(e.at, half), np.add(e.at, half)):
+                    sim.set_flows(**{key: [o for j, o in enumerate(items) if j != k]})
+                    return f"{key[:-1]} deleted"
+        for k, z in enumerate(scene.damping_zones):
+            ring = z.region(scene.domain_min, scene.domain_max)
+            axis = np.subtract(z.end, z.start)
+            on_line = np.abs((ring - z.start) @ axis) <= 1e-9 * (axis @ axis)
+            ends = ring[on_line]
+            if len(ends) >= 2 and near(ends[0], ends[-1]):
+                sim.set_flows(damping_zones=[o for j, o in enumerate(scene.damping_zones)
+                                             if j != k])
+                return "damping zone deleted"
+        return ""
 
     def toggle_emitter(self, px: float, py: float) -> str:
         """Start pouring at the cursor: an emitter in the scene from now on, straight
@@ -521,13 +614,9 @@ class _Window:
             self.screen = pg.display.set_mode(self.size, pg.RESIZABLE)
             self.renderer.resize(self.size)
         elif event.type == pg.MOUSEBUTTONDOWN and event.button == 1:
-            editor.begin_wall(*event.pos)
+            editor.begin_drag(*event.pos)
         elif event.type == pg.MOUSEBUTTONUP and event.button == 1:
-            try:
-                if editor.end_wall(*event.pos):
-                    self.message = f"wall added ({len(self.sim.scene.walls)} walls)"
-            except ValueError as e:
-                self.message = f"wall not added: {e}"
+            self.message = editor.end_drag(*event.pos) or self.message
         elif event.type == pg.MOUSEWHEEL:
             camera.zoom(1.25 ** event.y, *self.cursor)
         elif event.type == pg.MOUSEMOTION:
@@ -564,8 +653,11 @@ class _Window:
         elif key == pg.K_0:
             self.renderer.resize(self.size)  # fit the domain again
         elif key in (pg.K_x, pg.K_DELETE):
-            if editor.delete_wall_at(*self.cursor):
-                self.message = f"wall deleted ({len(sim.scene.walls)} walls)"
+            self.message = editor.delete_at(*self.cursor) or self.message
+        elif key in (pg.K_i, pg.K_o, pg.K_k, pg.K_b):
+            tool = {pg.K_i: "inlet", pg.K_o: "outlet", pg.K_k: "sink",
+                    pg.K_b: "damping zone"}[key]
+            self.message = editor.arm(tool)
         elif key == pg.K_e:
             self.message = editor.toggle_emitter(*self.cursor)
         elif key == pg.K_p:
@@ -601,14 +693,25 @@ class _Window:
         t0 = time.perf_counter()
         self.renderer.draw(screen)
         self.draw_ms = 1000 * (time.perf_counter() - t0)
-        if editor.start is not None:  # the wall being drawn
-            a = camera.to_screen(np.asarray(editor.start))
-            pg.draw.line(screen, (255, 210, 90), a, self.cursor, 2)
+        if editor.start is not None:  # what is being dragged
+            a = np.array(camera.to_screen(np.asarray(editor.start)), float)
+            b = np.array(self.cursor, float)
+            colour = {"wall": (255, 210, 90), "sink": SINK, "damping zone": DAMPING}.get(
+                editor.tool, EMITTER)
+            if editor.tool == "sink":
+                pg.draw.polygon(screen, colour, [a, (b[0], a[1]), b, (a[0], b[1])], 1)
+            else:
+                pg.draw.line(screen, colour, a, b, 2)
+            if editor.tool in ("inlet", "outlet"):  # the flow's side: the drag's right
+                d = b - a
+                mid = 0.5 * (a + b)
+                normal = np.array([-d[1], d[0]]) / max(np.hypot(*d), 1e-9)
+                pg.draw.line(screen, colour, mid, mid + 20 * normal, 2)
         font = self.renderer.font
         screen.blit(font.render(self.status(fps), True, TEXT), (8, 5))
         wx, wy = camera.to_world(*self.cursor)
         footer = (f"{MODE_LABELS[self.renderer.mode]}   draw {self.draw_ms:.1f} ms   cursor "
-                  f"({wx:.3f}, {wy:.3f}) m   H: help")
+                  f"({wx:.3f}, {wy:.3f}) m   left-drag: {editor.tool}   H: help")
         screen.blit(font.render(footer, True, DIM), (8, self.size[1] - 18))
         if self.message:
             screen.blit(font.render(self.message[:170], True, (255, 140, 120)), (8, 24))

@@ -65,7 +65,7 @@ class Result:
 
 def _scene(name: str, *, method: str, dx: float, box, fluid: dict, regions: list,
            walls: list, gravity=(0.0, -G), periodic=(False, False), duration: float,
-           cfl: float = 0.4) -> dict:
+           cfl: float = 0.4, **extensions) -> dict:
     return {
         "format": "sphfluid-scene/1",
         "name": name,
@@ -78,6 +78,7 @@ def _scene(name: str, *, method: str, dx: float, box, fluid: dict, regions: list
         "walls": walls,
         "solver": {"method": method, "time_step": "auto", "cfl": cfl},
         "duration": duration,
+        **extensions,
     }
 
 
@@ -750,23 +751,27 @@ class Basin(Case):
 
 
 class WaveMaker(Case):
-    """A piston wave maker: a vertical wall at the end of a tank 6 m long with
+    """A piston wave maker: a vertical wall at the end of a tank 3.5 m long with
     water h = 0.3 m deep moves as x(t) = (S/2) r(t) sin(2 pi t / T), S = 0.04 m,
     T = 1 s, r ramping from 0 to 1 over the first period (a table of 40 points
-    a period). Linear theory gives waves of height H = S 2 (cosh 2kh - 1) /
-    (sinh 2kh + 2kh) (Biesel & Suquet 1951; kh = 1.37 here, H/S = 1.30).
-    Error: |H / H_theory - 1|, H twice the amplitude of the sinusoid of period T
-    fitted to the surface height 1 m from the piston (3.3 depths: past the
-    piston's local disturbance) over 3 to 8 s (the waves reflected by the far
-    wall arrive there after 11 s)."""
+    a period); a damping zone (the scene's default strength) over the last
+    1.5 m (about a wavelength, 1.37 m) absorbs the waves. Linear theory gives
+    waves of height H = S 2 (cosh 2kh - 1) / (sinh 2kh + 2kh) (Biesel & Suquet
+    1951; kh = 1.37 here, H/S = 1.30). Error: |H / H_theory - 1|, H twice the
+    amplitude of the sinusoid of period T fitted to the surface height 1 m from
+    the piston (3.3 depths: past the piston's local disturbance) over 3 to 12 s.
+    The reflection coefficient comes from a second gauge 0.3 m further (the
+    incident and reflected waves separated by linear theory, after Goda &
+    Suzuki 1976)."""
 
     takes_dfsph = False  # moving walls
     name = "wave_maker"
     title = "Piston wave maker"
     error_name = "|H / H_theory - 1|"
     length = 0.3  # the depth
-    stroke, period, tank, probe, duration = 0.04, 1.0, 6.0, 1.0, 8.0
-    window = (3.0, 8.0)
+    stroke, period, tank, beach, probe, duration = 0.04, 1.0, 3.5, 1.5, 1.0, 12.0
+    gauge2 = 1.3  # the reflection's second gauge, m from the piston
+    window = (3.0, 12.0)
     resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15), "full": (10, 20, 30)}
 
     def motion(self) -> list:
@@ -787,7 +792,9 @@ class WaveMaker(Case):
                       walls=[{"polyline": [[-0.1, 0.0], [L, 0.0], [L, 2 * h]]},
                              {"polyline": [[0.0, 0.0], [0.0, 2 * h]],
                               "motion": {"translation": self.motion()}}],
-                      duration=self.duration)
+                      duration=self.duration,
+                      damping_zones=[{"name": "beach", "from": [L - self.beach, 0.0],
+                                      "to": [L, 0.0]}])
 
     def sample_times(self):
         return np.arange(self.period / 20, self.duration + 1e-9, self.period / 20)
@@ -795,9 +802,10 @@ class WaveMaker(Case):
     def sample(self, sim):
         from ..probes import Probes, SurfaceProbe, sample
 
-        return {"t": sim.time,
-                "eta": sample(sim, Probes(surface=(SurfaceProbe("s", self.probe),)))["s.height"]
-                - self.length}
+        heights = sample(sim, Probes(surface=(SurfaceProbe("s", self.probe),
+                                              SurfaceProbe("r", self.gauge2))))
+        return {"t": sim.time, "eta": heights["s.height"] - self.length,
+                "eta2": heights["r.height"] - self.length}
 
     def score(self, samples, times, result):
         t = np.array([s["t"] for s in samples])
@@ -811,7 +819,19 @@ class WaveMaker(Case):
         theory = self.stroke * ref.piston_height_ratio(kh)
         result.error = abs(height / theory - 1)
         fit = basis @ np.array([a, b, c])
+        # The reflection: each gauge's complex amplitude A (eta = Re(A e^(-i w t)))
+        # is a_I e^(ikx) + a_R e^(-ikx) for the incident and reflected waves.
+        eta2 = np.array([s["eta2"] for s in samples])
+        w2 = w & np.isfinite(eta2)
+        amp = []
+        for e in (eta, eta2):
+            (p, q, _), *_ = np.linalg.lstsq(basis[w2[w]], e[w2], rcond=None)
+            amp.append(p + 1j * q)
+        k = kh / self.length
+        x = np.array([self.probe, self.gauge2])
+        a_in, a_re = np.linalg.solve(np.c_[np.exp(1j * k * x), np.exp(-1j * k * x)], amp)
         result.metrics = {"H, m": height, "H_theory, m": theory, "kh": kh,
+                          "reflection coefficient": float(abs(a_re) / abs(a_in)),
                           "mean level change, m": float(c),
                           "RMS misfit of the sinusoid / H": float(
                               np.sqrt(np.mean((eta[w] - fit) ** 2)) / height)}
