@@ -27,22 +27,30 @@ namespace sphfluid::dfsph {
 // which approaches twice as fast as the particle: a static half-plane's sum
 // (W8's line table) would predict half the change. Derivatives by central
 // differences over two table cells.
-inline Vec2 wall_gradient(const WallTables& t, Real h, Real rho0, Row<Vec2> ghosts) {
+// Term by term: visit(r, g) for each ghost's share g of G_i (r from the ghost
+// to the particle), a corner's taken away as one share at each of its two
+// ghosts.
+template <class Visit>
+void wall_gradient_terms(const WallTables& t, Real h, Real rho0, Row<Vec2> ghosts, Visit visit) {
   const Real step = h / WallTables::kTable;
   auto slope = [&](auto f, Real d) {
     const Real lo = std::max(d - step, Real(0)), hi = std::min(d + step, h);
     return hi > lo ? (f(hi) - f(lo)) / (hi - lo) : Real(0);
   };
-  Vec2 g = Vec2::Zero();
   for (const Vec2& r : ghosts) {
     const Real d = r.norm();
-    if (d > 0) g += (rho0 * slope([&](Real x) { return t.wall_half(x); }, d) / d) * r;
+    if (d > 0) visit(r, ((rho0 * slope([&](Real x) { return t.wall_half(x); }, d) / d) * r).eval());
   }
   wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     const Real s1 = slope([&](Real x) { return t.corner_half(x, d2); }, d1);
     const Real s2 = slope([&](Real x) { return t.corner_half(d1, x); }, d2);
-    g -= rho0 * (s1 / d1 * r1 + s2 / d2 * r2);
+    visit(r1, (-rho0 * s1 / d1 * r1).eval());
+    visit(r2, (-rho0 * s2 / d2 * r2).eval());
   });
+}
+inline Vec2 wall_gradient(const WallTables& t, Real h, Real rho0, Row<Vec2> ghosts) {
+  Vec2 g = Vec2::Zero();
+  wall_gradient_terms(t, h, rho0, ghosts, [&](const Vec2&, const Vec2& share) { g += share; });
   return g;
 }
 
@@ -59,7 +67,9 @@ inline Real stiffness_factor(const Vec2& s, Real q) {
 }
 
 // D4, a pair's share of d rho_i / dt: m (v_i - v_j) . grad W_ij, with
-// m grad W_ij = mg; the walls' share is v_i . G_i (walls at rest).
+// m grad W_ij = mg; the walls' share is v_i . G_i, less sum v_w . g over
+// G_i's shares g (wall_gradient_terms) where the walls move or slide, v_w
+// the wall's material velocity at the share's ghost.
 inline Real rate_pair(const Vec2& vij, const Vec2& mg) { return vij.dot(mg); }
 
 // D5, a pair's share of the pressure acceleration of particle i from the

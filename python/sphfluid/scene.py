@@ -722,23 +722,19 @@ class _Validator:
         return tuple(self._velocities) if moving else ()
 
     def check_sliding_walls(self, solver: _Solver) -> None:
-        """A sliding wall's velocity enters wcsph's continuity density only."""
-        if getattr(self, "_moving_wall", "") and not (solver.method == "wcsph"
-                                                      and solver.density == "continuity"):
+        """A sliding wall's velocity enters wcsph's continuity density and dfsph
+        (its viscosity's walls) only."""
+        if getattr(self, "_moving_wall", "") and not (
+                solver.method == "dfsph" or solver.method == "wcsph"
+                and solver.density == "continuity"):
             self.fail(self._moving_wall, 'a wall\'s velocity needs "method": "wcsph" with '
-                      '"density": "continuity" (docs/method-wcsph.md, W25)')
+                      '"density": "continuity" (docs/method-wcsph.md, W25), or "dfsph"')
 
     def check_dfsph_scope(self, d: dict, solver: _Solver) -> None:
-        """What dfsph does not take yet (docs/method-dfsph.md, "Not yet"): moving
-        walls (its wall terms take the walls at rest) and inlets or outlets (their
-        buffers hold a pressure the solves do not know)."""
+        """What dfsph does not take yet (docs/method-dfsph.md, "Not yet"): inlets
+        or outlets (their buffers hold a pressure the solves do not know)."""
         if solver.method != "dfsph":
             return
-        for k, m in enumerate(getattr(self, "_motions", [])):
-            if m is not None:
-                self.fail(f"{self._wall_paths[k]}.motion", 'a moving wall needs "method": '
-                          '"seed" or "wcsph" (dfsph takes walls at rest)')
-                break
         for key in ("inlets", "outlets"):
             if d.get(key):
                 self.fail(key, 'needs "method": "seed" or "wcsph" (dfsph does not hold '

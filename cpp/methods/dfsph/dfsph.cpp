@@ -41,6 +41,7 @@ void DfsphMethod::particles_added(Index first) {
 
 std::size_t DfsphMethod::bytes() const {
   return (factor_.capacity() + e_.capacity() + dk_.capacity() + rho0s_.capacity() +
+          wall_rate_.capacity() +
           inv_rho_.capacity() + x_.capacity() + r_.capacity() + z_.capacity() +
           p_.capacity() + az_.capacity() + ap_.capacity() + partial_.capacity()) *
              sizeof(Real) +
@@ -96,14 +97,29 @@ void DfsphMethod::neighbours() {
   const Real rho0 = P_.rho0;
   Real* rho = ps.rho.data();
   wall_g_.assign(n, Vec2::Zero());
+  wall_rate_.clear();
   if constexpr ((F & kWalls) != 0) {
     ctx_.ghosts.find(ctx_.walls, ps.x.data(), n, P_.h, ctx_.team(), true);
     ctx_.timer.mark(kGhosts);
+    const WallSet& ws = ctx_.walls;
+    if (ws.moving()) wall_rate_.assign(n, 0);
+    const Vec2* x = ps.x.data();
     ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
       Real rho_i = rho[i];
       wcsph::add_wall_density(walls_, rho0, ghosts, rho_i);
       rho[i] = rho_i;
-      wall_g_[i] = dfsph::wall_gradient(walls_, P_.h, rho0, ghosts);
+      if (ws.moving()) {  // D4's walls' velocities, share by share
+        Vec2 g = Vec2::Zero();
+        Real w = 0;
+        dfsph::wall_gradient_terms(walls_, P_.h, rho0, ghosts, [&](const Vec2& r, const Vec2& s) {
+          g += s;
+          w += ws.velocity_at(x[i] - r).dot(s);
+        });
+        wall_g_[i] = g;
+        wall_rate_[i] = w;
+      } else {
+        wall_g_[i] = dfsph::wall_gradient(walls_, P_.h, rho0, ghosts);
+      }
     });
   }
   // The pair table: each particle's neighbours and m grad W_ij, in list order,
@@ -183,9 +199,16 @@ void DfsphMethod::non_pressure() {
                            1 / (r.squaredNorm() + c.eps2)) *
              (vi - v[j]);
       }
-      if constexpr ((F & kWalls) != 0)
-        wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ctx_.ghosts.row(i), 0, ir_i,
-                                    vi, f);
+      if constexpr ((F & kWalls) != 0) {
+        const Row<Vec2> ghosts = ctx_.ghosts.row(i);
+        if (ctx_.walls.moving()) {  // v_i relative to the wall's material at each ghost
+          for (const Vec2& r : ghosts)
+            wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, Row<Vec2>{&r, &r + 1}, 0,
+                                        ir_i, vi - ctx_.walls.velocity_at(xi - r), f);
+        } else {
+          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i, vi, f);
+        }
+      }
       a[i] = f;
     }
   } else {
@@ -379,12 +402,14 @@ Real DfsphMethod::product(Real dt) {
   });
 }
 
-// e = base + dt rate(u) - rho0 (D4); the sum of the error shares.
+// e = base + dt rate(u) - rho0 (D4, with the walls' own velocities); the sum
+// of the error shares.
 Real DfsphMethod::errors(const Vec2* u, const Real* base, Real dt) {
   const Real rho0 = P_.rho0;
   const bool confined = !free_surface_;
+  const Real* wall = wall_rate_.empty() ? nullptr : wall_rate_.data();
   return block_sum(ctx_.size(), ctx_.team(), partial_, [&](Index i) {
-    e_[i] = base[i] + dt * rate(i, u) - rho0;
+    e_[i] = base[i] + dt * (rate(i, u) - (wall ? wall[i] : Real(0))) - rho0;
     return dfsph::error_share(e_[i], confined);
   });
 }

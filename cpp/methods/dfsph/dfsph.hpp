@@ -133,6 +133,9 @@ class DfsphMethod final : public SphMethod {
   Real surface_g2_;           // D7's threshold of |s_i|^2 for a free surface
   bool free_surface_ = true;  // some particle is at a free surface (D7)
   std::vector<Vec2> wall_g_;  // D2 (zero without walls)
+  // D4's sum v_w . g over G_i's shares where walls move or slide (empty
+  // where none does): the walls' own velocity in the rate of density change.
+  std::vector<Real> wall_rate_;
   std::vector<Vec2> a_np_;    // the non-pressure accelerations of the last evaluation
   std::vector<Vec2> u_;       // the density solve's predicted velocities
   std::vector<Real> e_, dk_;  // per particle: the error and the pressure change

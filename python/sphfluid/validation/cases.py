@@ -625,7 +625,7 @@ class Cavity(Case):
     c0 = 10 U, from rest on the lattice, to t = 30 s (how much the centreline
     velocities still move over the last 10 s is reported). A wall whose
     surface slides needs wcsph's continuity density (its default;
-    docs/method-wcsph.md, W25). Error: the largest |u - u_Ghia| on the
+    docs/method-wcsph.md, W25) or dfsph (the seed does not run it). Error: the largest |u - u_Ghia| on the
     vertical centreline and |v - v_Ghia| on the horizontal one (Ghia, Ghia &
     Shin 1982; their interior points), the SPH velocities interpolated there by
     a linear least-squares fit over the particles within h (Wendland weights;
@@ -641,7 +641,7 @@ class Cavity(Case):
     resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (20, 30), "full": (25, 50, 100)}
 
     def applies(self, method):
-        return method == "wcsph"
+        return method in ("wcsph", "dfsph")
 
     def scene(self, n, method):
         L = self.length
@@ -764,7 +764,6 @@ class WaveMaker(Case):
     incident and reflected waves separated by linear theory, after Goda &
     Suzuki 1976)."""
 
-    takes_dfsph = False  # moving walls
     name = "wave_maker"
     title = "Piston wave maker"
     error_name = "|H / H_theory - 1|"
