@@ -444,3 +444,30 @@ def test_the_tool_keys_arm_the_next_drag(tmp_path):
               4: hover_and_press(a, "K_b"), 5: hover_and_press(a, "K_b")}
     sim = scripted_view(scene, events, frames=7, size=size)
     assert len(sim.scene.sinks) == 1 and sim.scene.walls == scene.walls
+
+
+def test_m_makes_the_wall_under_the_cursor_a_paddle_and_again_stops_it(display, tmp_path):
+    """M over the box's right wall: it oscillates along its normal a spacing
+    either way from now on (the saved scene carries the motion); M again (over
+    where it is then): it stops there, fixed."""
+    scene = falling_block(tmp_path)
+    sim, editor, px = editor_for(scene)
+    right = [k for k, (a, b) in enumerate(sim.scene.walls) if a[0] == b[0] == 1.0][0]
+    sim.step(10)
+    t0 = sim.time
+    msg = editor.toggle_motion(*px((1.0, 0.5)))
+    assert msg.startswith("the wall moves 0.05 m either way"), msg
+    motion = sim.scene.wall_motions[right]
+    assert motion.translation[0] == (pytest.approx(t0), 0.0, 0.0)
+    sim.advance_to(t0 + 1.25)  # a quarter period after the ramp: at its full stroke
+    (a, b) = sim.walls[right]
+    assert abs(a[0] - 1.0) == pytest.approx(0.05, rel=0.02) and a[0] == b[0]
+    again = sphfluid.load_scene(save_scene(sim, tmp_path / "paddle.json"))
+    assert again.wall_motions[right] == motion
+    x_now = float(a[0])
+    assert editor.toggle_motion(*px((x_now, 0.5))) == "the wall stopped where it is"
+    assert not sim.scene.wall_motions or sim.scene.wall_motions[right] is None
+    sim.advance_to(t0 + 1.5)
+    assert sim.walls[right][0][0] == pytest.approx(x_now) and sim.scene.walls[right][0][0] == \
+        pytest.approx(x_now)
+    assert editor.toggle_motion(*px((0.5, 0.7))) == ""  # no wall there

@@ -485,13 +485,42 @@ class Simulation:
         self.set_walls([*self.scene.walls, (a, b)])
 
     @_one_thread
+    def set_wall_motion(self, index: int, motion) -> None:
+        """Give wall segment ``index`` a motion (``flows.WallMotion``, its tables
+        in the run's time), or none (None): the segment as it is now becomes its
+        drawn position, so it does not jump. Checked as a scene's (SceneError by
+        JSON path, the run unchanged); effective at once."""
+        walls = list(self.scene.walls)
+        self._check_index(index, len(walls))
+        motions = list(self.scene.wall_motions) or [None] * len(walls)
+        walls[index] = tuple(tuple(map(float, p)) for p in self.walls[index])  # where it is
+        motions[index] = motion
+        moving = tuple(motions) if any(m is not None for m in motions) else ()
+        data = self.scene.to_dict()
+        data["walls"] = dataclasses.replace(self.scene, walls=tuple(walls),
+                                            wall_motions=moving)._walls_json()
+        scene = load_scene(data)  # every check a scene file gets
+        self._solver.set_walls(np.asarray(scene.walls, float).reshape(-1, 2, 2))  # as drawn
+        self.scene = dataclasses.replace(self.scene, walls=scene.walls,
+                                         wall_velocities=scene.wall_velocities,
+                                         wall_motions=scene.wall_motions)
+        if scene.wall_velocities:
+            self._solver.set_wall_velocities(np.asarray(scene.wall_velocities, float))
+        if scene.wall_motions:
+            self._set_wall_motions()  # placed at the run's time
+
+    @staticmethod
+    def _check_index(index, count: int) -> None:
+        if isinstance(index, bool) or not isinstance(index, numbers.Integral):
+            raise TypeError(f"index must be an integer, got {index!r}")
+        if not -count <= index < count:
+            raise IndexError(f"no wall {index}: there are {count}")
+
+    @_one_thread
     def remove_wall(self, index: int) -> None:
         """Remove wall segment number ``index`` (as in ``walls``)."""
         walls = list(self.scene.walls)
-        if isinstance(index, bool) or not isinstance(index, numbers.Integral):
-            raise TypeError(f"index must be an integer, got {index!r}")
-        if not -len(walls) <= index < len(walls):
-            raise IndexError(f"no wall {index}: there are {len(walls)}")
+        self._check_index(index, len(walls))
         del walls[index]
         self.set_walls(walls)
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .flows import DampingZone, Emitter, Outlet
+from .flows import DampingZone, Emitter, Outlet, WallMotion
 from .scene import Region, Scene, SceneError, load_scene
 from .simulation import InstabilityError, Simulation
 from .surface import polygons as liquid_polygons
@@ -38,6 +38,7 @@ HELP = [
     "K  the next left-drag places a sink (a rectangle)",
     "B  the next left-drag places a damping zone (from where it begins to full strength)",
     "X or Delete  delete the wall (or sink, inlet, outlet, zone) under the cursor",
+    "M  the wall under the cursor moves to and fro along its normal (a paddle); again: stops",
     "E  start / stop pouring at the cursor (an emitter Ctrl+S saves)",
     "right-drag  push the fluid",
     "wheel  zoom at the cursor   middle-drag  pan   0  fit the domain",
@@ -333,6 +334,9 @@ class Editor:
     PICK_PX = 10  # a wall this close to the cursor is the one under it
     EMIT_SPEED = 1.0  # m/s, straight down
     INFLOW_SPEED = 0.5  # m/s, an inlet placed here (the saved scene can change it)
+    # M: a wall oscillates along its normal, a spacing either way, for this many
+    # periods from now (ramped up over the first), then rests where it started.
+    PADDLE_PERIOD, PADDLE_PERIODS = 1.0, 20
     # What the next left-drag places (the keys of HELP), then walls again.
     TOOLS = ("wall", "inlet", "outlet", "sink", "damping zone")
     HINTS = {"wall": "left-drag draws walls",
@@ -416,10 +420,10 @@ class Editor:
                 sim.set_flows(outlets=[*scene.outlets, outlet])
 
     def wall_at(self, px: float, py: float) -> int | None:
-        walls = self.sim.scene.walls
-        if not walls:
+        """The wall segment under the cursor, where it is now (moving walls move)."""
+        seg = self.sim.walls
+        if not len(seg):
             return None
-        seg = np.asarray(walls, float)
         sx, sy = self.renderer.camera.to_screen(seg)
         a = np.stack([sx[:, 0], sy[:, 0]], axis=1)
         b = np.stack([sx[:, 1], sy[:, 1]], axis=1)
@@ -429,6 +433,32 @@ class Editor:
         d = np.hypot(*(a + t[:, None] * ab - [px, py]).T)
         i = int(np.argmin(d))
         return i if d[i] <= self.PICK_PX else None
+
+    def toggle_motion(self, px: float, py: float) -> str:
+        """The wall under the cursor oscillates along its normal from now on (a
+        paddle: a spacing either way, PADDLE_PERIOD, ramped up over the first
+        period); again: it stops where it is. Returns what happened."""
+        i = self.wall_at(px, py)
+        if i is None:
+            return ""
+        sim = self.sim
+        try:
+            if sim.scene.wall_motions and sim.scene.wall_motions[i] is not None:
+                sim.set_wall_motion(i, None)
+                return "the wall stopped where it is"
+            a, b = sim.walls[i]
+            d = b - a
+            normal = np.array([-d[1], d[0]]) / np.hypot(*d)
+            period, t0 = self.PADDLE_PERIOD, sim.time
+            t = np.arange(0.0, self.PADDLE_PERIODS * period + 1e-9, period / 40)
+            s = sim.scene.spacing * np.minimum(t / period, 1.0) * np.sin(2 * np.pi * t / period)
+            rows = tuple((float(t0 + tk), float(sk * normal[0]), float(sk * normal[1]))
+                         for tk, sk in zip(t, s))
+            sim.set_wall_motion(i, WallMotion(translation=rows, about=tuple(map(float, a))))
+        except ValueError as e:  # SceneError is one
+            return f"the wall cannot move so: {str(e).splitlines()[-1].strip()}"
+        return (f"the wall moves {sim.scene.spacing:g} m either way along its normal, "
+                f"period {self.PADDLE_PERIOD:g} s (Ctrl+S saves it)")
 
     def delete_at(self, px: float, py: float) -> str:
         """Delete the wall under the cursor, else the sink it is in, the inlet or
@@ -654,6 +684,8 @@ class _Window:
             self.renderer.resize(self.size)  # fit the domain again
         elif key in (pg.K_x, pg.K_DELETE):
             self.message = editor.delete_at(*self.cursor) or self.message
+        elif key == pg.K_m:
+            self.message = editor.toggle_motion(*self.cursor) or self.message
         elif key in (pg.K_i, pg.K_o, pg.K_k, pg.K_b):
             tool = {pg.K_i: "inlet", pg.K_o: "outlet", pg.K_k: "sink",
                     pg.K_b: "damping zone"}[key]
