@@ -6,6 +6,7 @@
 // method's registration (methods/method.hpp).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -137,6 +138,10 @@ class Context {
   // method whose density is summed sets the reference pressure (a carried
   // density is held at rho0 there); null without outlets.
   const std::int8_t* outlet_held() const { return held_ ? held_->data() : nullptr; }
+  // The particles were replaced (Solver::set_state): none is held yet.
+  void release_outlets() {
+    if (held_) std::fill(held_->data(), held_->data() + size(), std::int8_t(0));
+  }
   // The flows changed: the outlets' per-particle fields made (or dropped),
   // the inlets' buffers added at time() (counted as entered) and the
   // outlets' (fluid at rest, counted as placed).

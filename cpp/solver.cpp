@@ -134,6 +134,7 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
     ps.v[i] = velocities[i];
     ps.id[i] = ids.empty() ? Id(i) : ids[i];
   }
+  ctx_.release_outlets();
   if (ctx_.flows.has_inlets() || ctx_.flows.has_outlets()) {
     ctx_.flows.unfill_empty_buffers(ps.x.data(), n);
     ctx_.flows_set();  // a buffer the new state left empty, filled again

@@ -65,9 +65,16 @@ def test_the_strongest_zone_acts_where_zones_overlap_and_nothing_turns_round():
     beyond 1 / dt stops particles without reversing them (the factor's floor 0)."""
     zones = [{"from": [1.0, 0.0], "to": [1.1, 0.0], "strength": 5.0},
              {"from": [1.0, 0.0], "to": [1.2, 0.0], "strength": 3.0 / DT}]
-    sim = sphfluid.Simulation(lone_particles("wcsph", [1.61], zones), threads=1)
-    sim.step(1)
-    assert sim.velocities[0, 0] == 0.0
+    for order in (zones, zones[::-1]):
+        sim = sphfluid.Simulation(lone_particles("wcsph", [1.61], order), threads=1)
+        sim.step(1)
+        assert sim.velocities[0, 0] == 0.0
+    weak = [{"from": [1.0, 0.0], "to": [1.1, 0.0], "strength": 5.0},
+            {"from": [1.0, 0.0], "to": [1.2, 0.0], "strength": 2.0}]
+    for order in (weak, weak[::-1]):  # the smaller factor, whichever comes first
+        sim = sphfluid.Simulation(lone_particles("wcsph", [1.61], order), threads=1)
+        sim.step(1)
+        assert sim.velocities[0, 0] == pytest.approx(0.1 * (1 - DT * 5.0), rel=1e-12)
 
 
 def test_a_zone_along_any_direction_ramps_with_the_distance_past_its_line():
@@ -136,6 +143,8 @@ def test_the_scene_round_trips_and_reports_bad_zones_by_path():
     assert "damping_zones[0].flom" in error({"flom": [1.0, 0.0], "to": [1.2, 0.0]})
     assert "damping_zones[0].from: the zone (beyond [3.0, 0.0]" in error(
         {"from": [3.0, 0.0], "to": [3.5, 0.0]})  # past the domain's right edge
+    assert "covers none of the domain" in error(
+        {"from": [2.0, 0.0], "to": [2.5, 0.0]})  # on the right edge: no area
     with pytest.raises(ValueError, match="must differ"):  # the core refuses it too
         sphfluid.Simulation(lone_particles("wcsph", [0.51], []))._solver.set_damping(
             [{"from": [1.0, 0.0], "to": [1.0, 0.0], "strength": 1.0}])

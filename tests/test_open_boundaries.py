@@ -226,3 +226,43 @@ def test_set_state_fills_a_buffer_it_leaves_empty_and_keeps_a_held_one():
     assert sim.n_particles == np.count_nonzero(inside) + 60
     sim.advance_to(0.4)  # it flows on from there
     assert balanced(sim) and np.isfinite(sim.positions).all()
+
+
+def test_set_flows_keeps_a_buffer_whose_line_is_unchanged():
+    """An inlet renamed or given another speed, an outlet renamed: the same
+    lines, so their buffers stay (nothing added, no refusal); a line moved into
+    the fluid is refused with the reason, the run unchanged."""
+    import dataclasses
+
+    sim = sphfluid.Simulation(channel("wcsph"), threads=1)
+    sim.advance_to(0.1)
+    n = sim.n_particles
+    (inlet,), (outlet,) = sim.scene.inlets, sim.scene.outlets
+    sim.set_flows(inlets=[dataclasses.replace(inlet, name="feed", speed=0.15)],
+                  outlets=[dataclasses.replace(outlet, name="drain")])
+    assert sim.n_particles == n and sim.scene.inlets[0].speed == 0.15 and balanced(sim)
+    before = sim.scene
+    moved = dataclasses.replace(outlet, at=(0.2, H / 2))  # inside the fluid now
+    with pytest.raises(sphfluid.SceneError, match=r"outlets\[0\]: lies inside the fluid"):
+        sim.set_flows(outlets=[moved])
+    assert sim.scene == before and sim.n_particles == n
+
+
+def test_set_state_clears_the_outlets_hold():
+    """The particles given again in reverse order: the outlet's hold (kept per
+    particle) starts afresh, so the pressures evaluated then are those of the
+    same state in its own order (without: 22 particles upstream of the outlet
+    read its reference pressure); the channel flows on as before."""
+    a = sphfluid.Simulation(channel("seed"), threads=1)
+    a.advance_to(0.5)
+    b = sphfluid.Simulation(channel("seed"), threads=1)
+    b.advance_to(0.5)
+    b.set_state(b.positions[::-1].copy(), b.velocities[::-1].copy(), b.ids[::-1].copy())
+    a.set_state(a.positions.copy(), a.velocities.copy(), a.ids.copy())
+    oa, ob = np.argsort(a.ids), np.argsort(b.ids)
+    np.testing.assert_allclose(b.pressures[ob], a.pressures[oa], rtol=1e-9, atol=1e-9)
+    for sim in (a, b):
+        sim.advance_to(0.8)
+    oa, ob = np.argsort(a.ids), np.argsort(b.ids)
+    assert np.abs(a.positions[oa] - b.positions[ob]).max() < 1e-3
+    assert balanced(b)

@@ -438,12 +438,16 @@ def test_the_tool_keys_arm_the_next_drag(tmp_path):
     scene = falling_block(tmp_path)
     size = (500, 400)
     a, b = screen_of(scene, size, (0.02, 0.02)), screen_of(scene, size, (0.98, 0.15))
-    events = {1: hover_and_press(a, "K_k"),
-              2: [lambda pg: pg.event.Event(pg.MOUSEBUTTONDOWN, button=1, pos=a)],
-              3: [lambda pg: pg.event.Event(pg.MOUSEBUTTONUP, button=1, pos=b)],
-              4: hover_and_press(a, "K_b"), 5: hover_and_press(a, "K_b")}
-    sim = scripted_view(scene, events, frames=7, size=size)
-    assert len(sim.scene.sinks) == 1 and sim.scene.walls == scene.walls
+    c, d = screen_of(scene, size, (0.2, 0.5)), screen_of(scene, size, (0.6, 0.5))
+    down = lambda p: [lambda pg: pg.event.Event(pg.MOUSEBUTTONDOWN, button=1, pos=p)]  # noqa: E731
+    up = lambda p: [lambda pg: pg.event.Event(pg.MOUSEBUTTONUP, button=1, pos=p)]  # noqa: E731
+    events = {1: hover_and_press(a, "K_k"), 2: down(a), 3: up(b),  # a sink
+              4: hover_and_press(a, "K_b"), 5: down(c), 6: up(d),  # a damping zone
+              7: hover_and_press(a, "K_b"), 8: hover_and_press(a, "K_b"),  # B twice: walls
+              9: down(c), 10: up(d)}
+    sim = scripted_view(scene, events, frames=12, size=size)
+    assert len(sim.scene.sinks) == 1 and len(sim.scene.damping_zones) == 1
+    assert len(sim.scene.walls) == len(scene.walls) + 1
 
 
 def test_m_makes_the_wall_under_the_cursor_a_paddle_and_again_stops_it(display, tmp_path):

@@ -383,12 +383,21 @@ def read_damping(v, raw: list, lo, hi) -> list[DampingZone]:
                    "the zone's direction and the length of its ramp")
             continue
         zone = DampingZone(start, end, float(strength), str(item.get("name", "")))
-        if lo and hi and len(zone.region(lo, hi)) < 3:
+        ring = zone.region(lo, hi) if lo and hi else None
+        if ring is not None and not _area(ring) > 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]):
             v.fail(f"{path}.from", f"the zone (beyond {list(start)}, towards {list(end)}) "
                    "covers none of the domain: it would do nothing")
             continue
         out.append(zone)
     return out
+
+
+def _area(ring: np.ndarray) -> float:
+    """The area of a polygon (k, 2), m^2 (0 for fewer than 3 points)."""
+    if len(ring) < 3:
+        return 0.0
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
 
 
 def _buffer(depth: float) -> str:

@@ -222,12 +222,15 @@ class Simulation:
                      for m in self.scene.wall_motions]
         self._solver.set_wall_motions([m.to_core() for m in index], motion_of)
 
-    def _set_flows(self) -> None:
-        dx, depth = self.scene.spacing, self.scene.buffer_depth()
-        self._solver.set_flows([e.to_core(dx) for e in self.scene.emitters]
-                               + [e.to_core(dx, depth) for e in self.scene.inlets],
-                               [sink_to_core(r) for r in self.scene.sinks], dx,
-                               [o.to_core(depth) for o in self.scene.outlets])
+    def _set_flows(self, scene: Scene | None = None) -> None:
+        """The core's emitters, inlets, sinks and outlets: the scene's (or those of
+        ``scene``, a version of it)."""
+        scene = scene or self.scene
+        dx, depth = scene.spacing, scene.buffer_depth()
+        self._solver.set_flows([e.to_core(dx) for e in scene.emitters]
+                               + [e.to_core(dx, depth) for e in scene.inlets],
+                               [sink_to_core(r) for r in scene.sinks], dx,
+                               [o.to_core(depth) for o in scene.outlets])
 
     # -- stepping
     @property
@@ -432,8 +435,15 @@ class Simulation:
                 if not data[key]:
                     del data[key]
         scene = load_scene(data)  # every check a scene file gets
-        new_in = [k for k, e in enumerate(scene.inlets) if e not in self.scene.inlets]
-        new_out = [k for k, o in enumerate(scene.outlets) if o not in self.scene.outlets]
+
+        def shape(item) -> tuple:  # what keeps a buffer, as the core matches them
+            return (tuple(item.at), tuple(np.round(item.unit(), 12)),
+                    item.width or scene.spacing)
+
+        kept_in = {shape(e) for e in self.scene.inlets}
+        kept_out = {shape(o) for o in self.scene.outlets}
+        new_in = [k for k, e in enumerate(scene.inlets) if shape(e) not in kept_in]
+        new_out = [k for k, o in enumerate(scene.outlets) if shape(o) not in kept_out]
         if new_in or new_out:
             problems: list[str] = []
 
@@ -447,11 +457,11 @@ class Simulation:
                           (new_in, new_out))
             if problems:
                 raise SceneError(problems)
+        self._set_flows(scene)
+        self._solver.set_damping([z.to_core() for z in scene.damping_zones])
         self.scene = dataclasses.replace(self.scene, sinks=scene.sinks, inlets=scene.inlets,
                                          outlets=scene.outlets,
                                          damping_zones=scene.damping_zones)
-        self._set_flows()
-        self._solver.set_damping([z.to_core() for z in scene.damping_zones])
 
     @property
     def balance(self) -> dict:

@@ -39,6 +39,7 @@ HELP = [
     "B  the next left-drag places a damping zone (from where it begins to full strength)",
     "X or Delete  delete the wall (or sink, inlet, outlet, zone) under the cursor",
     "M  the wall under the cursor moves to and fro along its normal (a paddle); again: stops",
+    "   (drawing or deleting a wall fixes every wall where it was drawn)",
     "E  start / stop pouring at the cursor (an emitter Ctrl+S saves)",
     "right-drag  push the fluid",
     "wheel  zoom at the cursor   middle-drag  pan   0  fit the domain",
