@@ -369,6 +369,8 @@ class DampingZone:
 def read_damping(v, raw: list, lo, hi) -> list[DampingZone]:
     """The scene's "damping_zones" (the schema has checked their shape): 'to'
     on 'from', a zone that covers none of the domain, by JSON path."""
+    from .scene import _polygon_signed_area
+
     out = []
     for i, item in enumerate(raw):
         path = f"damping_zones[{i}]"
@@ -383,21 +385,13 @@ def read_damping(v, raw: list, lo, hi) -> list[DampingZone]:
                    "the zone's direction and the length of its ramp")
             continue
         zone = DampingZone(start, end, float(strength), str(item.get("name", "")))
-        ring = zone.region(lo, hi) if lo and hi else None
-        if ring is not None and not _area(ring) > 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]):
+        area = abs(_polygon_signed_area(zone.region(lo, hi).tolist())) if lo and hi else None
+        if area is not None and not area > 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]):
             v.fail(f"{path}.from", f"the zone (beyond {list(start)}, towards {list(end)}) "
                    "covers none of the domain: it would do nothing")
             continue
         out.append(zone)
     return out
-
-
-def _area(ring: np.ndarray) -> float:
-    """The area of a polygon (k, 2), m^2 (0 for fewer than 3 points)."""
-    if len(ring) < 3:
-        return 0.0
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
 
 
 def _buffer(depth: float) -> str:
