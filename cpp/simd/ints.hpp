@@ -64,8 +64,10 @@ SPHFLUID_INLINE I8 gather(Mask8 m, I8 index, const std::int32_t* base) {
 }
 
 // The lanes where a[k] != b[k], for sixteen consecutive entries of each.
-SPHFLUID_INLINE Mask16 differ16(const std::int32_t* a, const std::int32_t* b) {
-  return _mm512_cmpneq_epi32_mask(_mm512_loadu_si512(a), _mm512_loadu_si512(b));
+// (lane_bits: a loop over its set bits must never see bits above the sixteen)
+SPHFLUID_INLINE unsigned differ16(const std::int32_t* a, const std::int32_t* b) {
+  return lane_bits<16>(
+      _cvtmask16_u32(_mm512_cmpneq_epi32_mask(_mm512_loadu_si512(a), _mm512_loadu_si512(b))));
 }
 
 // Eight floats all set to x, stored at p.
