@@ -102,18 +102,18 @@ void DfsphMethod::neighbours() {
     ctx_.ghosts.find(ctx_.walls, ps.x.data(), n, P_.h, ctx_.team(), true);
     ctx_.timer.mark(kGhosts);
     const WallSet& ws = ctx_.walls;
-    if (ws.moving()) wall_rate_.assign(n, 0);
+    if (ws.moves()) wall_rate_.assign(n, 0);
     const Vec2* x = ps.x.data();
     ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
       Real rho_i = rho[i];
       wcsph::add_wall_density(walls_, rho0, ghosts, rho_i);
       rho[i] = rho_i;
-      if (ws.moving()) {  // D4's walls' velocities, share by share
+      if (ws.moves()) {  // D4's walls' velocities, share by share
         Vec2 g = Vec2::Zero();
         Real w = 0;
         dfsph::wall_gradient_terms(walls_, P_.h, rho0, ghosts, [&](const Vec2& r, const Vec2& s) {
           g += s;
-          w += ws.velocity_at(x[i] - r).dot(s);
+          w += ws.motion_velocity_at(x[i] - r).dot(s);
         });
         wall_g_[i] = g;
         wall_rate_[i] = w;
