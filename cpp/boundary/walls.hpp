@@ -76,6 +76,11 @@ struct VelocityToWall {
   Vec2 x, v;
   Vec2 operator()(const Vec2& r) const;
 };
+// The same beside fixed walls: the particle's own velocity at every ghost.
+struct VelocityAsIs {
+  Vec2 v;
+  const Vec2& operator()(const Vec2&) const { return v; }
+};
 
 class WallSet {
  public:

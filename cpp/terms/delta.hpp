@@ -206,21 +206,16 @@ SPHFLUID_INLINE void shift_rate(L F, L rho_i, L rho_j, L vol_i, L vol_j, L dx, L
 // t the wall's tangent; in a corner the quadrant both half-planes counted is
 // taken out once: (g1 C11 + g2 C12) n1 + (g1 C12 + g2 C22) n2,
 // g_k = g . n_k, C the quadrant's sums (WallTables::corner_11, corner_12).
-inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, const Vec2& vi,
-                          Real& d) {
+// vi_of(r): the particle's velocity relative to the wall at the ghost at r
+// (VelocityAsIs beside fixed walls; VelocityToWall beside moving ones, whose
+// rows move with their wall).
+template <class VelocityOf>
+void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i, const VelocityOf& vi_of,
+                   Real& d) {
   for (const Vec2& r : ghosts) {
     const Real rl = r.norm();
-    if (rl > 0) d -= rho_i * t.wall_line(rl) * vi.dot(r) / rl;
+    if (rl > 0) d -= rho_i * t.wall_line(rl) * vi_of(r).dot(r) / rl;
   }
-  wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-    d += rho_i * (t.corner_line(d1, d2) * vi.dot(r1) / d1 + t.corner_line(d2, d1) * vi.dot(r2) / d2);
-  });
-}
-// The same beside moving walls: the rows move with their wall, v_i taken
-// relative to the wall's material at each ghost (VelocityToWall).
-inline void add_wall_rate(const WallTables& t, Row<Vec2> ghosts, Real rho_i,
-                          const VelocityToWall& vi_of, Real& d) {
-  for (const Vec2& r : ghosts) add_wall_rate(t, Row<Vec2>{&r, &r + 1}, rho_i, vi_of(r), d);
   wcsph::for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     d += rho_i * (t.corner_line(d1, d2) * vi_of(r1).dot(r1) / d1 +
                   t.corner_line(d2, d1) * vi_of(r2).dot(r2) / d2);

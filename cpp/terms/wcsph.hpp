@@ -128,44 +128,34 @@ inline void add_wall_density(const WallTables& t, Real rho0, Row<Vec2> ghosts, R
   });
 }
 
-// W8-W9: the walls' acceleration on a particle with p / rho^2 = pi2, 1/rho =
-// inv_i and velocity vi, added to f. A ghost stands for the wall's half-plane
-// of fluid at rest with the particle's pressure (its positive part: walls
-// push, never pull) and the density rho_w (rho0 for the summation density;
-// the particle's with the continuity density, W20); the pressure pair summed
-// over it is 2 p_i rho_w / rho_i^2
+// W8-W9: the walls' acceleration on a particle with p / rho^2 = pi2 and
+// 1/rho = inv_i, added to f; vi_of(r) is its velocity relative to the wall
+// at the ghost at r (VelocityAsIs beside fixed walls; VelocityToWall beside
+// moving ones, whose ghosts move with their wall). A ghost stands for the
+// wall's half-plane of fluid at rest with the particle's pressure (its
+// positive part: walls push, never pull) and the density rho_w (rho0 for
+// the summation density; the particle's with the continuity density, W20);
+// the pressure pair summed over it is 2 p_i rho_w / rho_i^2
 // times the kernel's integral along the wall line, pointing away from the
 // wall; the artificial and physical viscosities act as from one particle at
 // rest at the ghost. In a corner both walls' pushes include the quadrant
 // beyond it: once only.
-template <bool Viscosity>
+template <bool Viscosity, class VelocityOf>
 void add_wall_force(const WallTables& t, const Wendland& W, const PairConstants<Real>& c,
-                    Real rho_w, Row<Vec2> ghosts, Real pi2, Real inv_i, const Vec2& vi, Vec2& f) {
+                    Real rho_w, Row<Vec2> ghosts, Real pi2, Real inv_i, const VelocityOf& vi_of,
+                    Vec2& f) {
   const Real pw2 = std::max(pi2, Real(0));
   for (const Vec2& r : ghosts) {
     const Real r2 = r.squaredNorm(), rl = std::sqrt(r2);
     const Vec2 gw = W.gradient(r, rl);
     if (rl > 0) f += (2 * pw2 * rho_w * t.wall_line(rl) / rl) * r;
+    const Vec2 vi = vi_of(r);
     const Real vr = vi.dot(r);
     if (vr < 0) f += (c.m * c.av * vr / (r2 + c.eps2) * inv_i) * gw;
     if constexpr (Viscosity) f += (c.m_eta2 * inv_i * inv_i * r.dot(gw) / (r2 + c.eps2)) * vi;
   }
   for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
     f -= (2 * pw2 * rho_w) * (t.corner_line(d1, d2) / d1 * r1 + t.corner_line(d2, d1) / d2 * r2);
-  });
-}
-
-// The same beside moving walls: the ghosts move with their wall, and the
-// viscosities act on v_i relative to the wall's material at each ghost.
-template <bool Viscosity>
-void add_wall_force(const WallTables& t, const Wendland& W, const PairConstants<Real>& c,
-                    Real rho_w, Row<Vec2> ghosts, Real pi2, Real inv_i,
-                    const VelocityToWall& vi_of, Vec2& f) {
-  for (const Vec2& r : ghosts)
-    add_wall_force<Viscosity>(t, W, c, rho_w, Row<Vec2>{&r, &r + 1}, pi2, inv_i, vi_of(r), f);
-  const Real push = 2 * std::max(pi2, Real(0)) * rho_w;  // (the corners: once)
-  for_each_corner(ghosts, [&](const Vec2& r1, Real d1, const Vec2& r2, Real d2) {
-    f -= push * (t.corner_line(d1, d2) / d1 * r1 + t.corner_line(d2, d1) / d2 * r2);
   });
 }
 

@@ -201,12 +201,14 @@ void DfsphMethod::non_pressure() {
       }
       if constexpr ((F & kWalls) != 0) {
         const Row<Vec2> ghosts = ctx_.ghosts.row(i);
-        if (ctx_.walls.moving()) {  // v_i relative to the wall's material at each ghost
-          for (const Vec2& r : ghosts)
-            wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, Row<Vec2>{&r, &r + 1}, 0,
-                                        ir_i, vi - ctx_.walls.velocity_at(xi - r), f);
+        if (ctx_.walls.moving()) {  // v_i relative to the wall's surface at each ghost
+          const WallSet& ws = ctx_.walls;
+          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
+                                      [&](const Vec2& r) { return Vec2(vi - ws.velocity_at(xi - r)); },
+                                      f);
         } else {
-          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i, vi, f);
+          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
+                                      VelocityAsIs{vi}, f);
         }
       }
       a[i] = f;

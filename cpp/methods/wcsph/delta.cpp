@@ -281,7 +281,7 @@ void DeltaWcsphMethod::density(Real dt) {
       if (ctx_.walls.moves()) {  // the rows move with their wall
         delta::add_wall_rate(walls_, ghosts, rho[i], VelocityToWall{ctx_.walls, ps.x[i], v[i]}, d);
       } else {
-        delta::add_wall_rate(walls_, ghosts, rho[i], v[i], d);
+        delta::add_wall_rate(walls_, ghosts, rho[i], VelocityAsIs{v[i]}, d);
       }
       delta::add_wall_laplacian(walls_, ghosts, l);
       rl[i] = Vec2(d, l);
@@ -454,7 +454,8 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
     wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
                                  VelocityToWall{ctx_.walls, ps.x[i], v[i]}, f);
   } else {
-    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i], v[i], f);
+    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
+                                 VelocityAsIs{v[i]}, f);
   }
   if constexpr ((F & kViscosity) != 0) {
     const Vec2 xi = ps.x[i];

@@ -207,7 +207,7 @@ void WcsphMethod::add_wall_force(Index i, Vec2& f) const {
                                  VelocityToWall{ctx_.walls, ps.x[i], ps.v[i]}, f);
   } else {
     wcsph::add_wall_force<kVisc>(walls_, kernel_, c, P_.rho0, ghosts, por2_[i], inv_rho_[i],
-                                 ps.v[i], f);
+                                 VelocityAsIs{ps.v[i]}, f);
   }
 }
 
