@@ -76,7 +76,7 @@ def test_the_scan_finds_a_mask_read_back_wider_than_it_was_stored():
     "  1:\tkmovw  %k0,0x198(%rsp)\n  2:\tmovzwl 0x198(%rsp),%edx\n",  # zero-extended
     "  1:\tkmovw  %k0,0x198(%rsp)\n  2:\tmov    %eax,0x198(%rsp)\n  3:\tmov    0x198(%rsp),%edx\n",
     "  1:\tkmovw  %k0,0x198(%rsp)\n\n  2:\tmov    0x198(%rsp),%edx\n",  # another function
-])
+], ids=["mask spill", "zero-extended", "slot rewritten", "another function"])
 def test_the_scan_passes_reads_of_the_stored_width(ok):
     assert narrow_mask_reads(ok) == []
 

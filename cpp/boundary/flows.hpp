@@ -3,8 +3,9 @@
 // spacing; inlets, emitters whose rows start in a buffer behind the inlet's
 // line and are held there on the lattice at the inflow velocity, so that the
 // fluid beyond the line has its full kernel support; outlets, lines beyond
-// which particles keep the velocity they crossed with (a buffer as deep as an
-// inlet's) until they leave the buffer's far side; and sinks, regions that
+// which particles move straight out at their lane's mean speed before the
+// line, at the reference pressure, through a buffer as deep as an inlet's
+// until they leave its far side; and sinks, regions that
 // remove whatever enters them. The Context applies them once a step, after
 // the drift (Context::exchange), so every method has them and pays nothing
 // without them.

@@ -12,9 +12,9 @@ method (``cpp/boundary/flows.hpp``), and counts what enters and what is sunk
 (``Simulation.balance``). An inlet is an emitter whose rows start in a buffer
 behind its line, ``buffer_depth`` deep, where they are held on the lattice at
 the inflow's velocity, so the fluid beyond the line has its full kernel
-support; an outlet is a line beyond which particles keep the velocity they
-crossed with through a buffer as deep, and leave past its far side (counted
-as out). A wall's motion moves it as a rigid body along
+support; an outlet is a line beyond which particles move straight out, at
+their lane's mean speed before the line and the reference pressure, through a
+buffer as deep, and leave past its far side (counted as out). A wall's motion moves it as a rigid body along
 tables of (time, value): its drawn position translated and turned about a
 point; the core meets particles in each moving wall's own frame, so none
 passes through it, and the boundary terms take velocities relative to it. A
