@@ -273,22 +273,18 @@ const std::vector<Vec2>& Context::lane_velocities(const Flows::Place* place,
                                                   const std::int8_t* held) {
   const Index n = size();
   const Vec2* v = ps.v.data();
-  std::vector<int> outlet_of(flows.lanes());
-  for (std::size_t k = 0; k < flows.outlets().size(); ++k)
-    for (int l = flows.first_lane(k); l < flows.first_lane(k + 1); ++l)
-      outlet_of[l] = static_cast<int>(k);
   lane_sum_.assign(flows.lanes(), 0);
   lane_count_.assign(flows.lanes(), 0);
   for (Index i = 0; i < n; ++i)
     if (place[i].zone == Flows::kUpstream && !held[i]) {
       const int l = place[i].lane;
-      lane_sum_[l] += v[i].dot(flows.outlets()[outlet_of[l]].direction);
+      lane_sum_[l] += v[i].dot(flows.outlet_of_lane(l).direction);
       ++lane_count_[l];
     }
   lane_v_.assign(flows.lanes(), Vec2::Zero());
   for (int l = 0; l < flows.lanes(); ++l)
     if (lane_count_[l] > 0 && lane_sum_[l] > 0)
-      lane_v_[l] = lane_sum_[l] / Real(lane_count_[l]) * flows.outlets()[outlet_of[l]].direction;
+      lane_v_[l] = lane_sum_[l] / Real(lane_count_[l]) * flows.outlet_of_lane(l).direction;
   return lane_v_;
 }
 

@@ -61,6 +61,16 @@ for method in ("seed", "wcsph", "seed-float", "dfsph"):
             sim.step(30)  # the arrays reach their working sizes
             a = count(); sim.step(1); b = count(); sim.step(200); c = count()
             print(method, name, threads, b - a, c - b)
+# an inlet and an outlet, running through both (dfsph refuses them)
+channel = json.loads(pathlib.Path(sys.argv[2]).read_text())
+for method in ("seed", "wcsph"):
+    channel["solver"].update(method=method, time_step=2e-4 if method == "seed" else "auto")
+    for threads in (1, 2):
+        sim = sphfluid.Simulation(channel, threads=threads)
+        sim.advance_to(1.0)  # (a second: the inflow has reached the outlet)
+        a = count(); sim.step(1); b = count(); sim.step(200); c = count()
+        assert sim.balance["in"] > 0 and sim.balance["out"] > 0, sim.balance
+        print(method, "channel", threads, b - a, c - b)
 """
 
 
@@ -74,12 +84,13 @@ def test_steps_do_not_allocate(tmp_path):
     subprocess.run([cc, "-O2", "-shared", "-fPIC", str(tmp_path / "count.c"), "-o", str(lib),
                     "-ldl"], check=True, capture_output=True, text=True)
     env = dict(os.environ, LD_PRELOAD=str(lib))
-    droplet = Path(__file__).resolve().parent.parent / "scenes" / "droplet.json"  # tension
-    out = subprocess.run([sys.executable, "-c", DRIVER, str(droplet)], env=env,
+    scenes = Path(__file__).resolve().parent.parent / "scenes"
+    droplet, channel = scenes / "droplet.json", scenes / "channel.json"  # tension; flows
+    out = subprocess.run([sys.executable, "-c", DRIVER, str(droplet), str(channel)], env=env,
                          capture_output=True, text=True, timeout=300, check=False)
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
-    assert len(rows) == 24, out.stdout
+    assert len(rows) == 28, out.stdout
     for method, name, threads, one, many in rows:
         # The call from Python costs the same few allocations for 1 step or
         # 200; the neighbour chunks may still grow by an eighth once or twice.

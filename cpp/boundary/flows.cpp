@@ -138,9 +138,11 @@ void Flows::set(std::vector<Emitter> emitters, std::vector<Sink> sinks,
   sinks_ = std::move(sinks);
   outlets_ = std::move(outlets);
   first_lane_.assign(1, 0);
-  for (const Outlet& o : outlets_) {
-    const auto lanes = std::max<std::int64_t>(1, std::llround(o.width / spacing));
+  outlet_of_lane_.clear();
+  for (std::size_t k = 0; k < outlets_.size(); ++k) {
+    const auto lanes = std::max<std::int64_t>(1, std::llround(outlets_[k].width / spacing));
     first_lane_.push_back(first_lane_.back() + static_cast<int>(lanes));
+    outlet_of_lane_.resize(first_lane_.back(), static_cast<int>(k));
   }
   lanes_ = first_lane_.back();
   travelled_ = std::move(travelled);

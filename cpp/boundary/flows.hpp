@@ -107,7 +107,8 @@ class Flows {
   };
   Place outlet_place(const Vec2& p, Real reach) const;
   int lanes() const { return lanes_; }
-  int first_lane(std::size_t outlet) const { return first_lane_[outlet]; }
+  // The outlet that lane l crosses.
+  const Outlet& outlet_of_lane(int l) const { return outlets_[outlet_of_lane_[l]]; }
   // The rows the emitters give over the step (t, t + dt], appended to x and v:
   // each row where it has travelled since it left the nozzle, at the
   // emitter's speed at t + dt.
@@ -133,6 +134,7 @@ class Flows {
   std::vector<char> filled_;  // per emitter: an inlet whose buffer is in the run
   std::vector<char> outlet_filled_;  // per outlet: likewise
   std::vector<int> first_lane_;  // per outlet
+  std::vector<int> outlet_of_lane_;  // per lane
   int lanes_ = 0;
   int inlets_ = 0;
   Vec2 lo_ = Vec2::Zero(), hi_ = Vec2::Zero();  // the sinks' bounding box
