@@ -38,6 +38,29 @@ BASE_SCENE = {
 }
 
 
+def same_on_one_and_two_threads(scene: dict, until: float):
+    """Runs `scene` to time `until` on 1 and then 2 threads and asserts the same
+    particles (by id) at the same positions, the same balance and the same walls;
+    returns the 2-thread Simulation for further checks."""
+    import numpy as np
+
+    import sphfluid
+
+    runs = []
+    for threads in (1, 2):
+        sim = sphfluid.Simulation(scene, threads=threads)
+        sim.advance_to(until)
+        runs.append(sim)
+    one, two = runs
+    assert one.balance == two.balance
+    o1, o2 = np.argsort(one.ids), np.argsort(two.ids)
+    assert np.array_equal(one.ids[o1], two.ids[o2])
+    assert np.array_equal(one.positions[o1], two.positions[o2])
+    assert np.array_equal(one.velocities[o1], two.velocities[o2])
+    assert np.array_equal(one.walls, two.walls)
+    return two
+
+
 @pytest.fixture
 def scene_dict():
     """A fresh copy of a small valid scene, to modify per test."""

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import sphfluid
+from conftest import same_on_one_and_two_threads
 from sphfluid.flows import Emitter
 
 DX = 0.02
@@ -108,15 +109,7 @@ def test_one_and_two_threads_identical_with_particles_entering_and_leaving():
               emitters=[jet(at=[0.3, 0.6], direction=[1, -1], speed=1.5)],
               sinks=[{"shape": "rectangle", "min": [1.2, 0.0], "max": [2.0, 0.3]}])
     d["solver"]["time_step"] = "auto"
-    runs = []
-    for threads in (1, 2):
-        sim = sphfluid.Simulation(d, threads=threads)
-        sim.advance_to(0.6)
-        runs.append((sim.ids.copy(), sim.positions.copy(), sim.balance))
-    assert runs[0][2] == runs[1][2] and runs[0][2]["in"] > 100
-    o0, o1 = np.argsort(runs[0][0]), np.argsort(runs[1][0])
-    assert np.array_equal(runs[0][0][o0], runs[1][0][o1])
-    assert np.array_equal(runs[0][1][o0], runs[1][1][o1])
+    assert same_on_one_and_two_threads(d, 0.6).balance["in"] > 100
 
 
 def test_a_checkpoint_mid_emission_continues_bit_for_bit(tmp_path):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import sphfluid
+from conftest import same_on_one_and_two_threads
 
 DX = 0.02
 
@@ -132,14 +133,9 @@ def test_the_adaptive_step_follows_a_fast_wall():
     assert sim.dt <= limit / (c0 + v + 3.0) * (1 + 1e-6)
 
 
-def test_one_and_two_threads_identical_with_a_moving_wall():
-    runs = []
-    for threads in (1, 2):
-        sim = sphfluid.Simulation(piston("wcsph", PADDLE), threads=threads)
-        sim.advance_to(0.2)
-        o = np.argsort(sim.ids)
-        runs.append((sim.positions[o].copy(), sim.walls.copy()))
-    assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+@pytest.mark.parametrize("motion", [FAST_PISTON, PADDLE], ids=["piston", "paddle"])
+def test_one_and_two_threads_identical_with_a_moving_wall(motion):
+    same_on_one_and_two_threads(piston("wcsph", motion), 0.2)
 
 
 def test_a_checkpoint_mid_motion_continues_bit_for_bit(tmp_path):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import sphfluid
+from conftest import same_on_one_and_two_threads
 from sphfluid.flows import Emitter
 
 DX = 0.01
@@ -119,15 +120,7 @@ def test_an_outlet_lets_out_what_crosses_it_and_the_balance_holds(method):
 
 
 def test_one_and_two_threads_identical_with_inlets_and_outlets():
-    runs = []
-    for threads in (1, 2):
-        sim = sphfluid.Simulation(channel(length=0.25), threads=threads)
-        sim.advance_to(1.2)
-        runs.append((sim.ids.copy(), sim.positions.copy(), sim.balance))
-    assert runs[0][2] == runs[1][2] and runs[0][2]["out"] > 20
-    o0, o1 = np.argsort(runs[0][0]), np.argsort(runs[1][0])
-    assert np.array_equal(runs[0][0][o0], runs[1][0][o1])
-    assert np.array_equal(runs[0][1][o0], runs[1][1][o1])
+    assert same_on_one_and_two_threads(channel(length=0.25), 1.2).balance["out"] > 20
 
 
 def test_a_checkpoint_mid_inflow_continues_bit_for_bit(tmp_path):
