@@ -70,7 +70,8 @@ def test_inviscid_water_does_not_feel_its_floor_slide(method, steps):
     couples the slide to the water: the run is the one over a still floor, to
     the bit. (dfsph's divergence term once took the floor's surface velocity for
     a moving wall's: 1.5e-10 m/s apart after 30 steps.)"""
-    still, sliding = (sphfluid.Simulation(sliding_floor(method, s), threads=1) for s in (False, True))
+    still, sliding = (sphfluid.Simulation(sliding_floor(method, s), threads=1)
+                      for s in (False, True))
     for sim in (still, sliding):
         sim.step(steps)
     assert np.abs(still.velocities).max() > 1e-4  # (the water settles: something to compare)

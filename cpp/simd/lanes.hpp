@@ -118,13 +118,16 @@ using Mask8 = unsigned char;
 // counting or looping over its set bits. GCC 12.2 (-O3 -march=native, LTO)
 // has spilled a 16-lane compare's mask with `kmovw %k0, mem` and read the
 // slot back as 32 bits (`mov`, `tzcnt` from memory), so bits 16-31 held stale
-// stack bytes and Csr::for_each_nonempty_row met rows 16-31 of a block twice
-// (beside a moving wall: wcsph on 2 threads not repeatable, walls' terms
-// added twice). The empty asm hands over the value in a register the
-// compiler cannot see into, so the AND after it stays.
+// stack bytes and Csr::for_each_nonempty_row met rows i + 16 .. i + 31 from
+// the group at i: rows it meets again, or another thread's (a race), or
+// past the last (a read out of bounds). Beside a moving wall wcsph on 2
+// threads was not repeatable, the walls' terms added twice to some rows.
+// The empty asm hands over the value in a register the compiler cannot see
+// into, so the AND after it stays.
 // tests/test_machine_code.py scans the built cores for the pattern.
 template <int Lanes>
 SPHFLUID_INLINE unsigned lane_bits(unsigned m) {
+  static_assert(Lanes > 0 && Lanes < 32, "a shift by 32 or more is undefined");
   asm("" : "+r"(m));
   return m & ((1u << Lanes) - 1u);
 }

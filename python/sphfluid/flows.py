@@ -14,12 +14,12 @@ behind its line, ``buffer_depth`` deep, where they are held on the lattice at
 the inflow's velocity, so the fluid beyond the line has its full kernel
 support; an outlet is a line beyond which particles move straight out, at
 their lane's mean speed before the line and the reference pressure, through a
-buffer as deep, and leave past its far side (counted as out). A wall's motion moves it as a rigid body along
-tables of (time, value): its drawn position translated and turned about a
-point; the core meets particles in each moving wall's own frame, so none
-passes through it, and the boundary terms take velocities relative to it. A
-damping zone slows the fluid beyond a line, more the deeper in, so that waves
-end there without reflecting (a numerical beach).
+buffer as deep, and leave past its far side (counted as out). A wall's motion
+moves it as a rigid body along tables of (time, value): its drawn position
+translated and turned about a point; the core meets particles in each moving
+wall's own frame, so none passes through it, and the boundary terms take
+velocities relative to it. A damping zone slows the fluid beyond a line, more
+the deeper in, so that waves end there without reflecting (a numerical beach).
 docs/scene-format.md, "Emitters and sinks", "Inlets and outlets", "Damping zones"
 and "Moving walls".
 """

@@ -203,8 +203,8 @@ void DfsphMethod::non_pressure() {
         const Row<Vec2> ghosts = ctx_.ghosts.row(i);
         if (ctx_.walls.moving()) {  // v_i relative to the wall's surface at each ghost
           const WallSet& ws = ctx_.walls;
-          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
-                                      [&](const Vec2& r) { return Vec2(vi - ws.velocity_at(xi - r)); },
+          auto to_surface = [&](const Vec2& r) { return Vec2(vi - ws.velocity_at(xi - r)); };
+          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i, to_surface,
                                       f);
         } else {
           wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
