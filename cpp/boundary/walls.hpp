@@ -76,6 +76,14 @@ struct VelocityToWall {
   Vec2 x, v;
   Vec2 operator()(const Vec2& r) const;
 };
+// A particle's velocity relative to the surface of the wall at the ghost at
+// r: a sliding lid's tangential velocity, or a moving wall's material
+// velocity (what the no-slip friction takes).
+struct VelocityToSurface {
+  const WallSet& walls;
+  Vec2 x, v;
+  Vec2 operator()(const Vec2& r) const;
+};
 // The same beside fixed walls: the particle's own velocity at every ghost.
 struct VelocityAsIs {
   Vec2 v;
@@ -247,6 +255,10 @@ class WallSet {
 
 inline Vec2 VelocityToWall::operator()(const Vec2& r) const {
   return v - walls.motion_velocity_at(x - r);
+}
+
+inline Vec2 VelocityToSurface::operator()(const Vec2& r) const {
+  return v - walls.velocity_at(x - r);
 }
 
 }  // namespace sphfluid

@@ -110,13 +110,14 @@ inline void add_wall_laplacian(const WallTables& t, Row<Vec2> ghosts, Real& sum)
 // wall_friction), a = -2 eta c_i / rho_i Psi_f(d) v_i per ghost (the rows'
 // density rho0 cancels their volume m / rho0); the corners' quadrant is not
 // taken out.
-// wall_velocity(r) is the surface velocity of the ghost's wall (a sliding
-// lid's; the rows move with it, v_i taken relative to it).
-template <class WallVelocity>
+// relative(r) is v_i relative to the surface of the ghost's wall (a sliding
+// lid's: the rows move with it): VelocityAsIs beside still walls,
+// VelocityToSurface beside moving ones.
+template <class Relative>
 void add_wall_friction(const WallTables& t, Row<Vec2> ghosts, Real eta, Real c_i, Real inv_i,
-                       const Vec2& vi, WallVelocity wall_velocity, Vec2& f) {
+                       Relative relative, Vec2& f) {
   Vec2 sum = Vec2::Zero();
-  for (const Vec2& r : ghosts) sum += t.wall_friction(r.norm()) * (vi - wall_velocity(r));
+  for (const Vec2& r : ghosts) sum += t.wall_friction(r.norm()) * relative(r);
   f -= (2 * eta * c_i * inv_i) * sum;
 }
 

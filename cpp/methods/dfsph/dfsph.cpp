@@ -202,10 +202,8 @@ void DfsphMethod::non_pressure() {
       if constexpr ((F & kWalls) != 0) {
         const Row<Vec2> ghosts = ctx_.ghosts.row(i);
         if (ctx_.walls.moving()) {  // v_i relative to the wall's surface at each ghost
-          const WallSet& ws = ctx_.walls;
-          auto to_surface = [&](const Vec2& r) { return Vec2(vi - ws.velocity_at(xi - r)); };
-          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i, to_surface,
-                                      f);
+          wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
+                                      VelocityToSurface{ctx_.walls, xi, vi}, f);
         } else {
           wcsph::add_wall_force<true>(walls_, kernel_, c, P_.rho0, ghosts, 0, ir_i,
                                       VelocityAsIs{vi}, f);

@@ -458,12 +458,12 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
                                  VelocityAsIs{v[i]}, f);
   }
   if constexpr ((F & kViscosity) != 0) {
-    const Vec2 xi = ps.x[i];
-    const WallSet& ws = ctx_.walls;
-    auto wall_velocity = [&](const Vec2& r) {
-      return ws.moving() ? ws.velocity_at(xi - r) : Vec2::Zero();
-    };
-    delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i], v[i], wall_velocity, f);
+    if (ctx_.walls.moving()) {
+      delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i],
+                               VelocityToSurface{ctx_.walls, ps.x[i], v[i]}, f);
+    } else {
+      delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i], VelocityAsIs{v[i]}, f);
+    }
   }
   delta::add_wall_hydrostatic(walls_, ghosts, inv_s_ * P_.gravity, f);  // W29's 1 / S
 }
