@@ -11,8 +11,8 @@ H = 0.05
 FLOOR = np.array([[[-1.0, 0.0], [1.0, 0.0]]])
 
 
-def ghosts(segments, p):
-    g = W.ghosts(np.asarray(segments, float), np.asarray(p, float), H)
+def ghosts(segments, p, nearest_only=False):
+    g = W.ghosts(np.asarray(segments, float), np.asarray(p, float), H, nearest_only)
     return sorted(map(tuple, np.round(g, 12)))
 
 
@@ -44,6 +44,21 @@ def test_inner_corner_gives_a_ghost_on_each_wall():
 def test_outer_corner_gives_one_ghost_at_the_vertex():
     corner = [[[0.0, 1.0], [0.0, 0.0]], [[0.0, 0.0], [1.0, 0.0]]]
     assert ghosts(corner, [-0.02, -0.02]) == [(0.0, 0.0)]
+
+
+def test_outer_corner_keeps_its_vertex_ghost_among_the_nearest():
+    corner = [[[0.0, 1.0], [0.0, 0.0]], [[0.0, 0.0], [1.0, 0.0]]]
+    assert ghosts(corner, [-0.02, -0.02], nearest_only=True) == [(0.0, 0.0)]
+    assert ghosts(FLOOR, [1.02, 0.01], nearest_only=True) == [(1.0, 0.0)]  # a free end
+
+
+def test_a_joint_another_piece_comes_nearer_than_is_not_among_the_nearest():
+    # a wall in pieces shorter than h (a probe's): beside the long piece, the
+    # short one's far joint is within h but the long piece is nearer there
+    pieces = [[[0.0, -1.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.01]], [[0.0, 0.01], [0.0, 1.0]]]
+    p = [0.02, 0.03]
+    assert ghosts(pieces, p) == [(0.0, 0.0), (0.0, 0.03)]
+    assert ghosts(pieces, p, nearest_only=True) == [(0.0, 0.03)]
 
 
 def collide(segments, x_old, x_new, v, e=1.0):

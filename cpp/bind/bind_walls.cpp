@@ -22,13 +22,15 @@ void check_h(double h) {
 }  // namespace
 
 void bind_walls(py::module_& m) {
-  m.def("ghosts", [](const InArray& walls, const InArray& point, double h) {
+  m.def("ghosts", [](const InArray& walls, const InArray& point, double h, bool nearest_only) {
     check_h(h);
     if (point.size() != 2) throw std::invalid_argument("point: expected [x, y]");
     const Vec2 p(point.data()[0], point.data()[1]);
     const WallSet set(bind::to_segments(walls), h);
     std::vector<Vec2> ghosts;
-    set.for_each_ghost(p, [&](const Vec2& r, bool) { ghosts.push_back(p - r); });
+    set.for_each_ghost(p, [&](const Vec2& r, bool nearest) {
+      if (nearest || !nearest_only) ghosts.push_back(p - r);
+    });
     py::array_t<double> out({py::ssize_t(ghosts.size()), py::ssize_t(2)});
     auto o = out.mutable_unchecked<2>();
     for (std::size_t i = 0; i < ghosts.size(); ++i) {
@@ -36,8 +38,10 @@ void bind_walls(py::module_& m) {
       o(i, 1) = ghosts[i].y();
     }
     return out;
-  }, py::arg("walls"), py::arg("point"), py::arg("h"),
-     "Positions of the wall ghosts of a particle at point (seed 4.1)");
+  }, py::arg("walls"), py::arg("point"), py::arg("h"), py::arg("nearest_only") = false,
+     "Positions of the wall ghosts of a particle at point (seed 4.1); with "
+     "nearest_only, only those at the walls' nearest point (wcsph and dfsph: none at "
+     "a joint another segment comes nearer than)");
   m.def("collide", [](const InArray& walls, const InArray& x_old, const InArray& x_new,
                       const InArray& v, double restitution, double h) {
     check_h(h);

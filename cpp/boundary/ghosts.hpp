@@ -23,18 +23,19 @@ class Ghosts {
   struct NoThen {
     void operator()(Index, Index) const {}
   };
-  // The ghosts of particles [0, n) (only those on a segment's interior with
-  // interior_only). on_row(i, row) runs as particle i's ghosts are found,
+  // The ghosts of particles [0, n) (with nearest_only, only those at the
+  // walls' nearest point: not at a joint that another segment comes nearer
+  // than, WallSet::for_each_ghost). on_row(i, row) runs as particle i's ghosts are found,
   // for a particle that has any; then(first, last) on each thread's range of
   // particles once their ghosts are found, in the same parallel region.
   template <class OnRow, class Then>
-  void find(const WallSet& walls, const Vec2* x, Index n, Real h, int threads, bool interior_only,
+  void find(const WallSet& walls, const Vec2* x, Index n, Real h, int threads, bool nearest_only,
             OnRow on_row, Then then) {
     // Returns the squared distance from x[i] to the nearest wall of its lookup cell.
     auto emit = [&](Index i, Chunk<Vec2>& out) {
       const std::size_t before = out.size();
-      const Real d2 = walls.for_each_ghost(x[i], [&](const Vec2& r, bool interior) {
-        if (interior || !interior_only) out.push_back(r);
+      const Real d2 = walls.for_each_ghost(x[i], [&](const Vec2& r, bool nearest) {
+        if (nearest || !nearest_only) out.push_back(r);
       });
       if (out.size() != before) on_row(i, Row<Vec2>{out.begin() + before, out.end()});
       return d2;
@@ -57,8 +58,8 @@ class Ghosts {
     }
   }
   void find(const WallSet& walls, const Vec2* x, Index n, Real h, int threads,
-            bool interior_only) {
-    find(walls, x, n, h, threads, interior_only, [](Index, Row<Vec2>) {}, NoThen{});
+            bool nearest_only) {
+    find(walls, x, n, h, threads, nearest_only, [](Index, Row<Vec2>) {}, NoThen{});
   }
 
   Row<Vec2> row(Index i) const { return rows_.row(i); }

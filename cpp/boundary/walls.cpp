@@ -149,15 +149,21 @@ void WallSet::build() {
   for (const auto& l : lists) cell_items_.insert(cell_items_.end(), l.begin(), l.end());
 }
 
-// A ghost clamped to an end point shared with segment `other` is counted once:
-// not at all if p projects into the interior of `other` (that segment supplies
-// the ghost), otherwise by the lower-numbered of the two segments.
-bool WallSet::owns_end_point(Index si, Index other, const Vec2& p) const {
-  if (other < 0) return true;
+// A ghost clamped to end point v of segment si, shared with segment `other`
+// (or -1), is counted once: not at all if p projects into the interior of
+// `other` (that segment supplies the ghost), otherwise by the lower-numbered
+// of the two segments. It is the walls' nearest point there (kVertex) if v
+// is also the point of `other` nearest p, or v is a free end: a convex
+// corner seen from outside; a joint (kJoint) if `other` comes nearer
+// elsewhere: beside a polyline whose pieces are shorter than the support.
+WallSet::EndPoint WallSet::end_point(Index si, Index other, const Vec2& v, const Vec2& p) const {
+  if (other < 0) return EndPoint::kVertex;
+  const Segment& o = segments_[other];
   Real t;
-  closest_point(segments_[other], p, t);
-  if (t > 0 && t < 1) return false;
-  return si < other;
+  closest_point(o, p, t);
+  if ((t > 0 && t < 1) || si > other) return EndPoint::kNone;
+  const bool at_a = (o.a - v).squaredNorm() <= (o.b - v).squaredNorm();
+  return (at_a ? t <= 0 : t >= 1) ? EndPoint::kVertex : EndPoint::kJoint;
 }
 
 Index WallSet::first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const {

@@ -128,11 +128,13 @@ class WallSet {
   // The largest it can be over the whole motion (from the tables), m/s.
   Real top_speed() const;
 
-  // Calls f(r_ig, interior) for every ghost of a fluid particle at p, where
-  // r_ig = p - ghost, |r_ig| < h, and interior is false for a ghost clamped to an
-  // end point of its segment. A ghost sits at the foot of the perpendicular on each segment
+  // Calls f(r_ig, nearest) for every ghost of a fluid particle at p, where
+  // r_ig = p - ghost and |r_ig| < h. A ghost sits at the foot of the perpendicular on each segment
   // within h (seed 4.1). Where segments share an end point the particle gets one
   // ghost there, not one per segment, so polylines have no doubled joints.
+  // nearest: the ghost is the walls' nearest point there (on a segment's
+  // interior, a convex corner's vertex seen from outside, or a free end);
+  // false at a joint another segment through it comes nearer than.
   // Returns the squared distance from p to the nearest segment of its lookup
   // cell, at most h^2 (h^2 off the grid): no other segment comes within h of p.
   template <class F>
@@ -148,9 +150,11 @@ class WallSet {
       const Vec2 r = p - foot;
       nearest2 = std::min(nearest2, r.squaredNorm());
       if (r.squaredNorm() >= h2_) continue;
-      if (t <= 0 && !owns_end_point(si, s.shared_a, p)) continue;
-      if (t >= 1 && !owns_end_point(si, s.shared_b, p)) continue;
-      f(r, t > 0 && t < 1);
+      EndPoint e = EndPoint::kVertex;
+      if (t <= 0) e = end_point(si, s.shared_a, s.a, p);
+      if (t >= 1) e = end_point(si, s.shared_b, s.b, p);
+      if (e == EndPoint::kNone) continue;
+      f(r, e == EndPoint::kVertex);
     }
     return nearest2;
   }
@@ -223,7 +227,8 @@ class WallSet {
     if (!(fx >= 0 && fy >= 0 && fx < nx_ && fy < ny_)) return -1;
     return static_cast<Index>(fy) * nx_ + static_cast<Index>(fx);
   }
-  bool owns_end_point(Index si, Index other, const Vec2& p) const;
+  enum class EndPoint { kNone, kVertex, kJoint };
+  EndPoint end_point(Index si, Index other, const Vec2& v, const Vec2& p) const;
   // The shared end points and the lookup grid of segments_.
   void build();
   // collide() among these segments as they stand.

@@ -76,9 +76,10 @@ void WcsphMethod::evaluate_kick(Real half) {
   accelerations<F>(half);
 }
 
-// W2 over the fluid pairs (with the neighbour search), and the walls' ghosts:
-// only ghosts on a segment's interior stand for a straight wall's fluid side;
-// beyond a segment's free end the reflection alone acts.
+// W2 over the fluid pairs (with the neighbour search), and the walls' ghosts
+// at their nearest points (W7: a convex corner's vertex and a free end have
+// one; a joint of pieces shorter than h that another piece comes nearer
+// than has none).
 template <unsigned F>
 void WcsphMethod::density() {
   ParticleSet& ps = ctx_.ps;

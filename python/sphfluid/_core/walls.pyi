@@ -3,7 +3,8 @@
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-def ghosts(walls: ArrayLike, point: ArrayLike, h: float) -> NDArray[np.float64]:
+def ghosts(walls: ArrayLike, point: ArrayLike, h: float,
+           nearest_only: bool = False) -> NDArray[np.float64]:
     """Positions (g, 2) of the wall ghosts of a particle at point [x, y] (seed 4.1)."""
 def collide(walls: ArrayLike, x_old: ArrayLike, x_new: ArrayLike, v: ArrayLike,
             restitution: float = 1.0,
