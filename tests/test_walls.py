@@ -61,6 +61,26 @@ def test_a_joint_another_piece_comes_nearer_than_is_not_among_the_nearest():
     assert ghosts(pieces, p, nearest_only=True) == [(0.0, 0.03)]
 
 
+def test_a_convex_vertex_is_nearest_whichever_way_its_segments_run():
+    # the vertex is the second segment's end b here (the first's end a)
+    corner = [[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [0.0, 0.0]]]
+    assert ghosts(corner, [-0.02, -0.02], nearest_only=True) == [(0.0, 0.0)]
+    square = [[[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [1.0, 1.0]], [[1.0, 1.0], [0.0, 1.0]],
+              [[0.0, 1.0], [0.0, 0.0]]]  # a closed polyline's first and last joint
+    assert ghosts(square, [-0.02, -0.01], nearest_only=True) == [(0.0, 0.0)]
+    nudged = [[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [1e-12, 1e-12]]]  # within the tolerance
+    assert len(ghosts(nudged, [-0.02, -0.02], nearest_only=True)) == 1
+
+
+def test_where_three_segments_meet_no_end_point_ghost_is_nearest():
+    # a fin on a convex corner: whatever the order, the vertex gives wcsph no ghost
+    star = [[[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]], [[0.0, 0.0], [-1.0, -1.0]]]
+    for order in ([0, 1, 2], [2, 1, 0], [1, 2, 0]):
+        walls = [star[k] for k in order]
+        assert ghosts(walls, [-0.03, -0.01], nearest_only=True) == [(-0.02, -0.02)]
+    assert len(ghosts(star, [-0.03, -0.01])) == 2  # the seed keeps its end-point ghost
+
+
 def collide(segments, x_old, x_new, v, e=1.0):
     x, vv = W.collide(np.asarray(segments, float), np.asarray(x_old, float),
                       np.asarray(x_new, float), np.asarray(v, float), e, H)

@@ -41,7 +41,7 @@ void bind_walls(py::module_& m) {
   }, py::arg("walls"), py::arg("point"), py::arg("h"), py::arg("nearest_only") = false,
      "Positions of the wall ghosts of a particle at point (seed 4.1); with "
      "nearest_only, only those at the walls' nearest point (wcsph and dfsph: none at "
-     "a joint another segment comes nearer than)");
+     "a joint another segment comes nearer than, nor where three segments meet)");
   m.def("collide", [](const InArray& walls, const InArray& x_old, const InArray& x_new,
                       const InArray& v, double restitution, double h) {
     check_h(h);

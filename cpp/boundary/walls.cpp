@@ -64,6 +64,7 @@ void WallSet::build() {
   cell_count_.clear();
   nx_ = ny_ = 0;
   for (Segment& s : segments_) s.shared_a = s.shared_b = -1;
+  junction_.assign(2 * static_cast<std::size_t>(ns), 0);
   if (ns == 0) return;
 
   // Shared end points: each end's partner is the lowest-numbered other segment
@@ -84,6 +85,7 @@ void WallSet::build() {
   std::sort(ends.begin(), ends.end(), [](const End& p, const End& q) { return p.x < q.x; });
   auto partner = [&](const End& e, Index other) {
     Index& slot = e.b ? segments_[e.seg].shared_b : segments_[e.seg].shared_a;
+    if (slot >= 0 && slot != other) junction_[2 * e.seg + e.b] = 1;  // a third segment
     if (slot < 0 || other < slot) slot = other;
   };
   for (std::size_t k = 0; k < ends.size(); ++k)
@@ -156,12 +158,17 @@ void WallSet::build() {
 // is also the point of `other` nearest p, or v is a free end: a convex
 // corner seen from outside; a joint (kJoint) if `other` comes nearer
 // elsewhere: beside a polyline whose pieces are shorter than the support.
-WallSet::EndPoint WallSet::end_point(Index si, Index other, const Vec2& v, const Vec2& p) const {
+// Where three or more segments meet (`junction`), only the lowest-numbered
+// partner is known: a joint wherever the particle is (the same for every
+// order the segments are given in).
+WallSet::EndPoint WallSet::end_point(Index si, Index other, bool junction, const Vec2& v,
+                                     const Vec2& p) const {
   if (other < 0) return EndPoint::kVertex;
   const Segment& o = segments_[other];
   Real t;
   closest_point(o, p, t);
   if ((t > 0 && t < 1) || si > other) return EndPoint::kNone;
+  if (junction) return EndPoint::kJoint;
   const bool at_a = (o.a - v).squaredNorm() <= (o.b - v).squaredNorm();
   return (at_a ? t <= 0 : t >= 1) ? EndPoint::kVertex : EndPoint::kJoint;
 }

@@ -134,7 +134,8 @@ class WallSet {
   // ghost there, not one per segment, so polylines have no doubled joints.
   // nearest: the ghost is the walls' nearest point there (on a segment's
   // interior, a convex corner's vertex seen from outside, or a free end);
-  // false at a joint another segment through it comes nearer than.
+  // false at a joint of two segments the other comes nearer than, and at
+  // any point where three or more segments meet.
   // Returns the squared distance from p to the nearest segment of its lookup
   // cell, at most h^2 (h^2 off the grid): no other segment comes within h of p.
   template <class F>
@@ -151,8 +152,8 @@ class WallSet {
       nearest2 = std::min(nearest2, r.squaredNorm());
       if (r.squaredNorm() >= h2_) continue;
       EndPoint e = EndPoint::kVertex;
-      if (t <= 0) e = end_point(si, s.shared_a, s.a, p);
-      if (t >= 1) e = end_point(si, s.shared_b, s.b, p);
+      if (t <= 0) e = end_point(si, s.shared_a, junction_[2 * si] != 0, s.a, p);
+      if (t >= 1) e = end_point(si, s.shared_b, junction_[2 * si + 1] != 0, s.b, p);
       if (e == EndPoint::kNone) continue;
       f(r, e == EndPoint::kVertex);
     }
@@ -228,7 +229,7 @@ class WallSet {
     return static_cast<Index>(fy) * nx_ + static_cast<Index>(fx);
   }
   enum class EndPoint { kNone, kVertex, kJoint };
-  EndPoint end_point(Index si, Index other, const Vec2& v, const Vec2& p) const;
+  EndPoint end_point(Index si, Index other, bool junction, const Vec2& v, const Vec2& p) const;
   // The shared end points and the lookup grid of segments_.
   void build();
   // collide() among these segments as they stand.
@@ -237,6 +238,9 @@ class WallSet {
   Index first_hit(const Vec2& p0, const Vec2& p1, Real& s_hit) const;
 
   std::vector<Segment> segments_;
+  // Per end point (2 si for a, 2 si + 1 for b): whether three or more
+  // segments meet there.
+  std::vector<char> junction_;
   bool moving_ = false;
   Real h_ = 0;
   Real h2_ = 0;

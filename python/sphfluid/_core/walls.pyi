@@ -5,7 +5,9 @@ from numpy.typing import ArrayLike, NDArray
 
 def ghosts(walls: ArrayLike, point: ArrayLike, h: float,
            nearest_only: bool = False) -> NDArray[np.float64]:
-    """Positions (g, 2) of the wall ghosts of a particle at point [x, y] (seed 4.1)."""
+    """Positions (g, 2) of the wall ghosts of a particle at point [x, y] (seed 4.1); with
+    nearest_only, only those at the walls' nearest point (wcsph's and dfsph's: none at a
+    joint that another segment comes nearer than, nor where three segments meet)."""
 def collide(walls: ArrayLike, x_old: ArrayLike, x_new: ArrayLike, v: ArrayLike,
             restitution: float = 1.0,
             h: float = 1.0) -> tuple[tuple[float, float], tuple[float, float]]:
