@@ -70,7 +70,9 @@ def test_wcsph_summed_density_stays_at_rest_around_a_block():
 @pytest.mark.parametrize("block", [True, False])
 def test_dfsph_water_around_a_block_keeps_its_density(block):
     speed, dense = at_rest("dfsph", block, 1.0)
-    # measured: with the block 0.034 sqrt(gH) and 0.14 % at most (1.3 and 80 % with
-    # no corner ghost); without it 0.041 and 0.29 %
-    assert dense < 0.01
+    # measured (the wheel's baseline / avx2 / avx512 cores): with the block 0.031 /
+    # 0.031 / 0.034 sqrt(gH) and 1.2 / 0.24 / 0.14 % at most; without it 0.054 / 0.038 /
+    # 0.041 and 0.50 / 0.96 / 0.29 % (the tank's own noise); with no corner ghost 1.3
+    # and 80 %
+    assert dense < 0.05
     assert speed < 0.1
