@@ -82,13 +82,25 @@ def test_cli_writes_tables_and_plots(tmp_path, capsys):
     md = tmp_path / "VALIDATION.md"
     md.write_text("# Validation\n\nhand-written text stays\n")
     code = main(["validate", "--quick", "--case", "poiseuille", "--method", "wcsph",
-                 "--out", str(tmp_path / "plots"), "--write", str(md)])
+                 "--method", "dfsph", "--out", str(tmp_path / "plots"), "--write", str(md)])
     assert code == 0
     text = md.read_text()
     assert "hand-written text stays" in text
     assert "| wcsph | 10 |" in text and "| wcsph | 20 |" in text
-    assert "sphfluid validate --quick --case poiseuille --method wcsph" in text
+    assert "| dfsph | 10 |" in text and "| seed |" not in text  # --method repeats
+    assert "sphfluid validate --quick --case poiseuille --method wcsph --method dfsph" in text
     png = tmp_path / "plots" / "validation_poiseuille.png"
     assert png.exists() and png.stat().st_size > 10_000
     assert "](plots/validation_poiseuille.png)" in text
     assert "Poiseuille" in capsys.readouterr().out
+
+
+def test_a_case_whose_every_run_failed_still_plots(tmp_path):
+    """No completed run: the error axis says so (its log ticks had nothing to
+    span, and matplotlib raised)."""
+    pytest.importorskip("matplotlib")
+    runs = [Result("channel", "dfsph", n, 0.1 / n, particles=100, failure="stopped by the guard")
+            for n in (10, 20)]
+    path = tmp_path / "validation_channel.png"
+    assert runner.plot_case("channel", runs, path)
+    assert path.exists() and path.stat().st_size > 5_000

@@ -252,7 +252,7 @@ void Flows::unfill_empty_buffers(const Vec2* x, Index n) {
   }
 }
 
-bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
+int Flows::inlet_holding(const Vec2& x) const {
   for (std::size_t k = 0; k < emitters_.size(); ++k) {
     const Emitter& e = emitters_[k];
     if (!(e.buffer > 0)) continue;
@@ -260,20 +260,30 @@ bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
     const Real along = rel.dot(e.direction);
     if (!(along < 0 && along >= -e.buffer)) continue;
     const Vec2 across(-e.direction.y(), e.direction.x());
-    const std::int64_t count = row_count(e);
-    const Real half = Real(0.5) * Real(count) * dx_;
-    const Real off = rel.dot(across);
-    if (!(std::abs(off) <= half)) continue;
-    // The rows stand at travel + m dx from the back, the columns at
-    // (j + 1/2) dx from the edge.
-    const Real s = travelled_[k];
-    const Real m = std::round((along + e.buffer - s) / dx_);
-    const Real j = std::clamp(std::floor((off + half) / dx_), Real(0), Real(count - 1));
-    x = e.at + (s + m * dx_ - e.buffer) * e.direction + ((j + Real(0.5)) * dx_ - half) * across;
-    v = inflow(e, t);
-    return true;
+    if (!(std::abs(rel.dot(across)) <= Real(0.5) * Real(row_count(e)) * dx_)) continue;
+    return static_cast<int>(k);
   }
-  return false;
+  return -1;
+}
+
+bool Flows::hold_in_inlet(Real t, Vec2& x, Vec2& v) const {
+  const int k = inlet_holding(x);
+  if (k < 0) return false;
+  const Emitter& e = emitters_[k];
+  const Vec2 rel = x - e.at;
+  const Real along = rel.dot(e.direction);
+  const Vec2 across(-e.direction.y(), e.direction.x());
+  const std::int64_t count = row_count(e);
+  const Real half = Real(0.5) * Real(count) * dx_;
+  const Real off = rel.dot(across);
+  // The rows stand at travel + m dx from the back, the columns at
+  // (j + 1/2) dx from the edge.
+  const Real s = travelled_[k];
+  const Real m = std::round((along + e.buffer - s) / dx_);
+  const Real j = std::clamp(std::floor((off + half) / dx_), Real(0), Real(count - 1));
+  x = e.at + (s + m * dx_ - e.buffer) * e.direction + ((j + Real(0.5)) * dx_ - half) * across;
+  v = inflow(e, t);
+  return true;
 }
 
 Real Flows::top_inflow_speed() const {

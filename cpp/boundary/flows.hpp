@@ -96,6 +96,8 @@ class Flows {
   // its position snapped to the buffer's lattice and its velocity the
   // inflow's; false (nothing changed) elsewhere.
   bool hold_in_inlet(Real t, Vec2& x, Vec2& v) const;
+  // Whether x is in an inlet's buffer (where hold_in_inlet holds it).
+  bool in_inlet(const Vec2& x) const { return inlet_holding(x) >= 0; }
   // Where p is about the outlets: kUpstream within `reach` before a line,
   // kHeld in its buffer, kPast beyond the buffer's far side (to leave), with
   // the outlet's lane (lanes a spacing wide across it, numbered over all
@@ -123,6 +125,7 @@ class Flows {
                    std::vector<char>& filled);
   void keep_outlets(const std::vector<Outlet>& outlets, std::vector<char>& filled);
   std::int64_t row_count(const Emitter& e) const;
+  int inlet_holding(const Vec2& x) const;  // the inlet whose buffer holds x, or -1
   void row(const Emitter& e, Real along, const Vec2& u, std::vector<Vec2>& x,
            std::vector<Vec2>& v) const;
   Vec2 inflow(const Emitter& e, Real t) const;

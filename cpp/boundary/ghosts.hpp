@@ -25,7 +25,8 @@ class Ghosts {
   };
   // The ghosts of particles [0, n) (with nearest_only, only those at the
   // walls' nearest point: not at a joint that another segment comes nearer
-  // than, WallSet::for_each_ghost). on_row(i, row) runs as particle i's ghosts are found,
+  // than, nor where three or more segments meet; WallSet::for_each_ghost).
+  // on_row(i, row) runs as particle i's ghosts are found,
   // for a particle that has any; then(first, last) on each thread's range of
   // particles once their ghosts are found, in the same parallel region.
   template <class OnRow, class Then>

@@ -112,7 +112,7 @@ struct SimParams {
   Real density_tolerance = 1e-4;
   Real divergence_tolerance = 1e-3;
   int min_iterations = 2;
-  int max_iterations = 100;
+  int max_iterations = 1000;
 
   // Speed of sound of the method's state equation, and the length in the
   // time-step conditions (the method's registration says: methods/registry.cpp).

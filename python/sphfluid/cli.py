@@ -312,9 +312,9 @@ def _add_validate(sub) -> None:
                        help="the real measurement (finer resolutions, minutes)")
     v.add_argument("--case", action="append", choices=list(CASES),
                    help="run only this case (repeatable)")
-    v.add_argument("--method", choices=CHOICES,
-                   help="run only this method (seed-float: the seed with its pair forces in "
-                        "float, solver.pair_precision; dfsph runs on request only)")
+    v.add_argument("--method", action="append", choices=CHOICES,
+                   help="run only this method (repeatable; seed-float: the seed with its pair "
+                        "forces in float, solver.pair_precision; dfsph runs on request only)")
     v.add_argument("--threads", type=_count,
                    help="OpenMP threads per run (default: all cores; 1 on Dask)")
     _matrix_options(v)

@@ -475,7 +475,6 @@ class _Validator:
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
         self.check_sliding_walls(solver)
-        self.check_dfsph_scope(d, solver)
         self.check_regions_inside(domain, regions)
         self.check_walls_near(domain, walls)
         if res.dx and regions and not self.problems:
@@ -729,16 +728,6 @@ class _Validator:
                 and solver.density == "continuity"):
             self.fail(self._moving_wall, 'a wall\'s velocity needs "method": "wcsph" with '
                       '"density": "continuity" (docs/method-wcsph.md, W25), or "dfsph"')
-
-    def check_dfsph_scope(self, d: dict, solver: _Solver) -> None:
-        """What dfsph does not take yet (docs/method-dfsph.md, "Not yet"): inlets
-        or outlets (their buffers hold a pressure the solves do not know)."""
-        if solver.method != "dfsph":
-            return
-        for key in ("inlets", "outlets"):
-            if d.get(key):
-                self.fail(key, 'needs "method": "seed" or "wcsph" (dfsph does not hold '
-                          'buffers yet)')
 
     def segment(self, item: list, path: str) -> list[tuple[Point, Point]]:
         """[[x1, y1], [x2, y2]] as a list of one segment (none after a problem)."""

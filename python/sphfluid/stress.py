@@ -271,8 +271,8 @@ def run_violent(d: dict, max_wall: float, threads: int | None = None) -> Outcome
 def bundled_scenes(folder: Path) -> dict[tuple[str, str], dict]:
     """Each scene of `folder` as shipped, then with each method and the adaptive
     step: the format promises that changing `solver.method` alone runs a scene,
-    within what the method takes (dfsph refuses inlets, outlets and moving walls
-    with the reason: those runs are left out)."""
+    within what the method takes (a scene a method refuses, with the reason, is
+    left out)."""
     import json
 
     from .scene import SceneError, load_scene

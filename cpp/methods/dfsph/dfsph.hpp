@@ -9,7 +9,8 @@
 // tension W10-W12, gravity). Both solves are conjugate residuals on
 // per-particle pressure values preconditioned by the stiffness factors,
 // warm-started from the previous step's, over a pair table made with the
-// search: each sum in one order whatever the thread count.
+// search: each sum in one order whatever the thread count. The inlets' and
+// outlets' buffers enter them as boundaries (find_buffers).
 #pragma once
 
 #include <cstdint>
@@ -68,6 +69,8 @@ class DfsphMethod final : public SphMethod {
   // a then holds the total acceleration. The divergence-free solve: v corrected until its
   // rate of density change is within the tolerance.
   void density_solve(Real dt);
+  // roles_ and unknowns_ at the current positions.
+  void find_buffers();
   void divergence_solve(Real dt);
   // One solve on the velocities u (n): the pressure values k (a field, warm
   // start in, result out) with per-particle error e_i = base_i + dt
@@ -89,6 +92,29 @@ class DfsphMethod final : public SphMethod {
   // k += dk_.
   Real errors(const Vec2* u, const Real* base, Real dt);
   void apply(Vec2* u, Real* k, Real dt);
+  // dk of the inlets' buffers: their values the fluid's beside them.
+  void extrapolate_inflow(const Real* k);
+  // moved(i) for every particle, in parallel, but held(i) for those in an
+  // inlet's buffer, whose velocity no value changes (the loop without a test
+  // when there are none).
+  template <class Moved, class Held>
+  void for_each_moved(Moved moved, Held held) {
+    const Index n = ctx_.size();
+    if (roles_.empty()) {
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+      for (Index i = 0; i < n; ++i) moved(i);
+    } else {
+      const char* role = roles_.data();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+      for (Index i = 0; i < n; ++i) {
+        if (role[i] == kInflow) {
+          held(i);
+        } else {
+          moved(i);
+        }
+      }
+    }
+  }
   // D5 and D4 of particle i over the pair table: the pressure acceleration
   // of the values value(j) (and value(i)), and the rate of velocities u.
   template <class Value>
@@ -148,6 +174,11 @@ class DfsphMethod final : public SphMethod {
   std::vector<Vec2> du_;  // a velocity change (D5 times dt)
   std::vector<Real> rho0s_;   // rho0 per particle (the divergence solve's base)
   std::vector<Real> inv_rho_;  // 1 / rho (the viscosity)
+  // Per particle with inlets or outlets (empty without): kFree, or in a
+  // buffer (find_buffers); and how many are kFree (the mean error's count).
+  enum Role : char { kFree, kInflow, kOutflow };
+  std::vector<char> roles_;
+  Index unknowns_ = 0;
   SolveStats stats_;
   // The search, factors and a_np_ hold for the current particles (the step
   // starts with a solve over them); false after a checkpoint is restored.

@@ -100,7 +100,6 @@ class Case:
     name = ""
     title = ""
     error_name = ""  # what Result.error measures
-    takes_dfsph = True  # False: the case's scene uses what dfsph refuses
     length = 1.0  # m: n cells across this length give the spacing
     resolutions: ClassVar[dict[str, tuple[int, ...]]] = {"quick": (10, 15, 20), "full": (10, 20, 40)}
 
@@ -128,7 +127,7 @@ class Case:
         pair forces run where the cell clusters do (no surface tension, no
         periodic axis, an AVX-512 build); elsewhere the seed runs in double."""
         if method != "seed-float":
-            return True if method != "dfsph" else self.takes_dfsph
+            return True
         d = self.scene(self.resolutions["quick"][0], "seed")
         d["solver"]["pair_precision"] = "float"
         return Simulation(load_scene(d), threads=1)._solver.float_pairs
@@ -850,7 +849,6 @@ class Channel(Case):
     over the rows of the profile averaged over 0.3-0.4 m from the inlet and over
     t = 6-8 s (the slowest viscous mode then decays below 0.3 %)."""
 
-    takes_dfsph = False  # inlets and outlets
     name = "channel"
     title = "Channel with an inlet and an outlet"
     error_name = "max |du| / u_max over rows, x 0.3-0.4 m, t 6-8 s"

@@ -253,12 +253,15 @@ def plot_case(name: str, results: list[Result], path: Path) -> bool:
     # a log axis spanning less than a decade labels every minor tick, and the
     # labels run into each other: ticks at 1, 2 and 5 of each decade instead
     from matplotlib.ticker import FuncFormatter, LogLocator
-    for axis in (left.xaxis, left.yaxis):
-        axis.set_minor_locator(LogLocator(base=10, subs=(2.0, 5.0)))
-        axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     if left.lines:
+        for axis in (left.xaxis, left.yaxis):
+            axis.set_minor_locator(LogLocator(base=10, subs=(2.0, 5.0)))
+            axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         left.legend(fontsize=8)
+    else:  # (a log axis with nothing on it cannot place its ticks)
+        left.text(0.5, 0.5, "no run completed", ha="center", va="center",
+                  transform=left.transAxes)
     _profile(name, results, right)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -481,7 +484,7 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
 def main(args) -> int:
     mode = "full" if args.full else "quick"
     names = args.case or list(CASES)
-    methods = [args.method] if args.method else list(VARIANTS)
+    methods = list(dict.fromkeys(args.method)) if args.method else list(VARIANTS)
 
     def log(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -521,7 +524,7 @@ def main(args) -> int:
     seconds = time.perf_counter() - start
     command = " ".join(["sphfluid validate", f"--{mode}"]
                        + [f"--case {n}" for n in (args.case or [])]
-                       + ([f"--method {args.method}"] if args.method else [])
+                       + [f"--method {m}" for m in (args.method or [])]
                        + (["--peers"] if args.peers else [])
                        + ([f"--peer-timeout {args.peer_timeout:g}"]
                           if args.peer_timeout is not None else []))
