@@ -100,7 +100,10 @@ void Solver::set_flows(std::vector<Emitter> emitters, std::vector<Sink> sinks,
   ctx_.flows.set(std::move(emitters), std::move(sinks), std::move(outlets), spacing);
   const Index before = ctx_.size();
   ctx_.flows_set();
-  if (ctx_.size() == before) return;
+  if (ctx_.size() == before) {
+    method_->flows_changed();
+    return;
+  }
   compute_forces();  // the inlets' buffers, evaluated with the rest
   compute_energy_budget();
 }

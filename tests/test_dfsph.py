@@ -364,6 +364,8 @@ def test_validate_runs_dfsph_on_request_on_every_case(tmp_path, capsys):
     assert code == 0
     text = md.read_text()
     assert "| dfsph | 10 |" in text and "Channel with an inlet" in text
-    assert "unstable" not in text.split("Channel with an inlet")[1]
+    channel = text.split("Channel with an inlet")[1]
+    assert "unstable" not in channel and "FAILED" not in channel
+    assert all(f"| dfsph | {n} | " in channel for n in (10, 20))
     assert (tmp_path / "validation_hydrostatic.png").exists()
     assert (tmp_path / "validation_channel.png").exists()

@@ -185,6 +185,27 @@ def test_dfsph_carries_the_fluids_pressure_into_an_inlet_and_holds_an_outlets_at
     assert sim.stats()["solve_unconverged"] == 0
 
 
+def test_dfsph_takes_an_inlet_removed_by_set_flows_at_once():
+    """set_flows without the inlet adds no particle and so evaluates nothing:
+    dfsph finds its buffers again (before, the next step still held the old
+    buffer at the inflow and its neighbours at values extrapolated into it)."""
+    runs = []
+    for evaluate in (False, True):
+        sim = sphfluid.Simulation(channel("dfsph"), threads=1)
+        sim.advance_to(1.0)
+        sim.set_flows(inlets=[])
+        if evaluate:
+            sim.compute_forces()
+        buffer = sim.ids[sim.positions[:, 0] < 0.03 - 1e-9]
+        sim.step(1)
+        o = np.argsort(sim.ids)
+        runs.append((sim.ids[o], sim.positions[o], sim.velocities[o]))
+    (ids, x, v), (ids2, x2, v2) = runs
+    assert np.array_equal(ids, ids2) and np.array_equal(x, x2) and np.array_equal(v, v2)
+    former = np.isin(ids, buffer)
+    assert former.sum() == 30 and not np.all(v[former] == [U, 0.0])
+
+
 def test_dfsph_starts_a_long_channel_from_rest_within_its_iterations():
     """An inlet at full speed against fluid at rest: the first solve sets the
     whole channel moving at once (the validation channel's first solve takes 594

@@ -52,6 +52,10 @@ class SphMethod {
   // Particles [first, size) were just set or added: a method that carries
   // state of its own (a density) gives them their initial values.
   virtual void particles_added(Index first) { (void)first; }
+  // The inlets or outlets changed and no particle was added (Solver::
+  // set_flows removed one, or moved a line): a method that keeps which
+  // particles are in their buffers finds them again.
+  virtual void flows_changed() {}
   // The numbers of the method's own that the next step reads besides the
   // particle fields (a checkpoint's), and setting them back; restore_carried
   // makes the fields those numbers imply (a lazily made one), before the

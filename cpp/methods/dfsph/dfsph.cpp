@@ -169,8 +169,9 @@ void DfsphMethod::neighbours() {
 // carry the fluid's values beside them (extrapolate_inflow); an outlet's held
 // particles (Context::outlet_held) hold the reference pressure, a value of 0,
 // their velocities moved by their neighbours' values. Neither is an unknown
-// of the conjugate residuals (whose matrix is then a principal part of the
-// whole M, symmetric) nor counts in the error.
+// of the conjugate residuals (whose matrix is then M without the buffers'
+// rows and columns and with the inlets' velocities held: still symmetric and
+// positive semi-definite) nor counts in the error.
 void DfsphMethod::find_buffers() {
   const Index n = ctx_.size();
   const Flows& flows = ctx_.flows;

@@ -38,6 +38,7 @@ class DfsphMethod final : public SphMethod {
   Real surface_energy() const override { return surface_.energy(); }
   SolveStats solve_stats() const override { return stats_; }
   void particles_added(Index first) override;
+  void flows_changed() override { find_buffers(); }
   // A checkpoint's fields replace the state: the next step evaluates first.
   void restore_carried(const std::vector<Real>&) override { evaluated_ = false; }
   std::size_t bytes() const override;

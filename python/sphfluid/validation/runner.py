@@ -451,7 +451,7 @@ def report(results: list[Result], names: list[str], mode: str, command: str, sec
     for name in names:
         case = CASES[name]
         mine = [r for r in results if r.case == name]
-        if not mine:  # no method asked for runs it (dfsph: moving walls, inlets)
+        if not mine:  # no method asked for runs it
             continue
         parts += [f"### {case.title}", "", " ".join((case.__doc__ or "").split()), "",
                   f"Error: {case.error_name}.", "",
@@ -524,7 +524,7 @@ def main(args) -> int:
     seconds = time.perf_counter() - start
     command = " ".join(["sphfluid validate", f"--{mode}"]
                        + [f"--case {n}" for n in (args.case or [])]
-                       + [f"--method {m}" for m in (args.method or [])]
+                       + [f"--method {m}" for m in dict.fromkeys(args.method or [])]
                        + (["--peers"] if args.peers else [])
                        + ([f"--peer-timeout {args.peer_timeout:g}"]
                           if args.peer_timeout is not None else []))
