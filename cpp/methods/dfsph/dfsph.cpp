@@ -451,9 +451,21 @@ Real DfsphMethod::residual_step(Real alpha, Real inv_dt2) {
 Real DfsphMethod::product(Real dt) {
   const Index n = ctx_.size();
   const Real* z = z_.data();
-  for_each_moved([&](Index i) {
-    du_[i] = dt * pressure_acceleration(i, [z](Index j) { return z[j]; });
-  }, [&](Index i) { du_[i] = Vec2::Zero(); });
+  // (two loops, the first the plain one: one loop through a lambda for the
+  // particle, with or without buffers, cost the 10k dam break 4 %)
+  if (roles_.empty()) {
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i) du_[i] = dt * pressure_acceleration(i, [z](Index j) {
+      return z[j];
+    });
+  } else {
+    const char* role = roles_.data();  // an inlet's buffer: no value moves it
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i)
+      du_[i] = role[i] == kInflow
+                   ? Vec2(Vec2::Zero())
+                   : Vec2(dt * pressure_acceleration(i, [z](Index j) { return z[j]; }));
+  }
   return block_sum(n, ctx_.team(), partial_, [&](Index i) {
     az_[i] = active_[i] ? -dt * rate(i, du_.data()) : Real(0);
     return z_[i] * az_[i];
@@ -481,10 +493,22 @@ Real DfsphMethod::errors(const Vec2* u, const Real* base, Real dt) {
 // u += dt a_p(dk) (D5; not in an inlet's buffer), k += dk.
 void DfsphMethod::apply(Vec2* u, Real* k, Real dt) {
   const Real* dk = dk_.data();
-  for_each_moved([&](Index i) {
-    u[i] += dt * pressure_acceleration(i, [dk](Index j) { return dk[j]; });
-    k[i] += dk[i];
-  }, [&](Index i) { k[i] += dk[i]; });
+  const Index n = ctx_.size();
+  const char* role = roles_.empty() ? nullptr : roles_.data();
+  if (!role) {
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i) {
+      u[i] += dt * pressure_acceleration(i, [dk](Index j) { return dk[j]; });
+      k[i] += dk[i];
+    }
+  } else {
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+    for (Index i = 0; i < n; ++i) {
+      if (role[i] != kInflow)
+        u[i] += dt * pressure_acceleration(i, [dk](Index j) { return dk[j]; });
+      k[i] += dk[i];
+    }
+  }
 }
 
 }  // namespace sphfluid

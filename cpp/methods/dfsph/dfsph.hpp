@@ -95,27 +95,6 @@ class DfsphMethod final : public SphMethod {
   void apply(Vec2* u, Real* k, Real dt);
   // dk of the inlets' buffers: their values the fluid's beside them.
   void extrapolate_inflow(const Real* k);
-  // moved(i) for every particle, in parallel, but held(i) for those in an
-  // inlet's buffer, whose velocity no value changes (the loop without a test
-  // when there are none).
-  template <class Moved, class Held>
-  void for_each_moved(Moved moved, Held held) {
-    const Index n = ctx_.size();
-    if (roles_.empty()) {
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
-      for (Index i = 0; i < n; ++i) moved(i);
-    } else {
-      const char* role = roles_.data();
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
-      for (Index i = 0; i < n; ++i) {
-        if (role[i] == kInflow) {
-          held(i);
-        } else {
-          moved(i);
-        }
-      }
-    }
-  }
   // D5 and D4 of particle i over the pair table: the pressure acceleration
   // of the values value(j) (and value(i)), and the rate of velocities u.
   template <class Value>
