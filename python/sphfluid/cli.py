@@ -338,7 +338,15 @@ class _Terminated(Exception):
 
 
 def _on_sigterm(signum, frame):
-    raise _Terminated()
+    from .output import raise_or_hold
+
+    raise_or_hold(_Terminated())  # (not within a file's write)
+
+
+def _on_sigint(signum, frame):
+    from .output import raise_or_hold
+
+    raise_or_hold(KeyboardInterrupt())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -351,12 +359,14 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     previous = None
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = (signal.signal(signal.SIGTERM, _on_sigterm),
+                    signal.signal(signal.SIGINT, _on_sigint))
     try:
         return _main(args, argv)
     finally:
         if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+            signal.signal(signal.SIGTERM, previous[0])
+            signal.signal(signal.SIGINT, previous[1])
 
 
 def _main(args, argv: list[str] | None) -> int:

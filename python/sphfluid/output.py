@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import threading
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any, Iterator
@@ -58,19 +59,55 @@ def require_vtk_writer():
     return vtk
 
 
+_writing = 0  # replacing() blocks open
+_held: BaseException | None = None  # a stop that came meanwhile
+
+
+def raise_or_hold(stop: BaseException) -> None:
+    """For a signal handler that stops the program (the command line's, on
+    SIGTERM and Ctrl+C): raises `stop` now, or, while replacing() writes a
+    file, as soon as it is whole. Raised inside a library's write, a stop can
+    leave it broken: numpy's savez, stopped within zipfile's close, raised a
+    ValueError of its own over it, and `sphfluid run` ended with a traceback
+    instead of its message."""
+    global _held
+    if _writing:
+        _held = _held or stop
+    else:
+        raise stop
+
+
+@contextlib.contextmanager
+def _stops_held() -> Iterator[None]:
+    global _writing, _held
+    if threading.current_thread() is not threading.main_thread():
+        yield  # (signal handlers run in the main thread: its writes are held)
+        return
+    _writing += 1
+    try:
+        yield
+    finally:
+        _writing -= 1
+        if not _writing and _held is not None:
+            stop, _held = _held, None
+            raise stop
+
+
 @contextlib.contextmanager
 def replacing(path: Path) -> Iterator[Path]:
     """A temporary path beside ``path`` (same folder and extension) to write to,
-    renamed onto ``path`` when the block ends, removed if it raises."""
+    renamed onto ``path`` when the block ends, removed if it raises; a stop
+    that comes meanwhile waits until then (raise_or_hold)."""
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+    with _stops_held():
+        try:
+            yield tmp
+            os.replace(tmp, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise
 
 
 def frame_writer(fmt: str, folder: Path, sim, surface: bool = False):
