@@ -268,3 +268,25 @@ def test_parsed_json_that_is_not_an_object_is_refused():
     for value in ([1, 2], None, 3.5):
         with pytest.raises(sphfluid.SceneError, match="expected a JSON object at the top level"):
             sphfluid.load_scene(value)
+
+
+@pytest.mark.parametrize("ratio, warned", [(1.5, True), (1.75, True), (2.0, False), (2.5, False)])
+def test_a_dfsph_support_below_two_spacings_is_a_warning(tmp_path, scene_dict, capsys, ratio,
+                                                         warned):
+    scene_dict["fluid"] = {"rest_density": 1000.0, "viscosity": 0.5}
+    scene_dict["solver"] = {"method": "dfsph", "time_step": "auto"}
+    scene_dict["resolution"]["smoothing_length"] = ratio * scene_dict["resolution"]["spacing"]
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0
+    assert ("warning: resolution.smoothing_length:" in out) == warned
+    if warned:
+        assert f"is {ratio:g} spacings, below the 2 dfsph needs" in out
+
+
+def test_the_seed_and_wcsph_take_a_support_of_one_and_a_half_spacings(tmp_path, scene_dict,
+                                                                       capsys):
+    scene_dict["resolution"]["smoothing_length"] = 0.075
+    for method in ("seed", "wcsph"):
+        scene_dict["solver"]["method"] = method
+        code, out = check(tmp_path, scene_dict, capsys)
+        assert code == 0 and "smoothing_length" not in out
