@@ -7,6 +7,8 @@
 #include <limits>
 #include <sstream>
 
+#include "terms/wcsph.hpp"
+
 namespace sphfluid {
 
 std::string fmt(Real x) {
@@ -184,8 +186,10 @@ void Context::exchange() {
 void Context::flows_set() {
   if (flows.has_outlets() && !held_) {
     held_ = std::make_unique<Field<std::int8_t>>(ps, "outlet_held", FieldKind::kState);
+    head_ = std::make_unique<Field<Real>>(ps, "outlet_pressure", FieldKind::kState);
   } else if (!flows.has_outlets()) {
     held_.reset();
+    head_.reset();
   }
   new_x_.clear();
   new_v_.clear();
@@ -210,6 +214,7 @@ void Context::append(Index n, bool entered) {
     ps.v[n + i] = new_v_[i];
     ps.id[n + i] = top + 1 + i;
     if (held_) (*held_)[n + i] = 0;
+    if (head_) (*head_)[n + i] = 0;
   }
   // The new particles' energy enters the guard's budget once they are
   // evaluated, at the next integration (budget_stale).
@@ -241,13 +246,19 @@ void Context::hold_outlets() {
     leaving |= place[i].zone == Flows::kPast;
   }
   const std::vector<Vec2>& lane_v = lane_velocities(place, held);
-  // The carried density (continuity) held at rho0: the outlet's pressure is
-  // the reference pressure (a summed density's is set by the method).
+  const std::vector<Real>& surface = outlet_surfaces(place, held);
+  // The carried density (continuity) held at the density of its pressure: the
+  // reference pressure plus the hydrostatic head (a summed density's pressure
+  // is set by the method from outlet_pressure()).
   const bool pressure = params_.continuity;
-  const Real rho0 = params_.rho0;
+  const Real rho0 = params_.rho0, g = params_.gravity.norm();
+  const Real B = rho0 * params_.c0 * params_.c0 / wcsph::kTaitGamma;
+  const Vec2 up = g > 0 ? Vec2(-params_.gravity / g) : Vec2::Zero();
+  Real* head = head_->data();
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(| : leaving)
   for (Index i = 0; i < n; ++i) {
     held[i] = place[i].zone == Flows::kHeld && lane_v[place[i].lane].squaredNorm() > 0;
+    head[i] = 0;
     if (!held[i]) continue;
     // (along the outlet only: the drift across it, walls' reflections
     // included, stands, and a reflected particle is not pushed back)
@@ -256,7 +267,9 @@ void Context::hold_outlets() {
     const Vec2 out = u / along_u;
     x[i] -= dt * (v[i].dot(out) - along_u) * out;
     v[i] = u;
-    if (pressure) rho[i] = rho0;
+    const Real depth = surface[flows.outlet_index_of_lane(place[i].lane)] - x[i].dot(up);
+    if (depth > 0) head[i] = rho0 * g * depth;
+    if (pressure) rho[i] = head[i] > 0 ? wcsph::tait_density(head[i], rho0, B) : rho0;
     leaving |= flows.outlet_place(x[i], reach).zone == Flows::kPast;  // moved past it now
   }
   search.grid().drop_ahead();  // positions changed since the integration looked ahead
@@ -286,6 +299,37 @@ const std::vector<Vec2>& Context::lane_velocities(const Flows::Place* place,
     if (lane_count_[l] > 0 && lane_sum_[l] > 0)
       lane_v_[l] = lane_sum_[l] / Real(lane_count_[l]) * flows.outlet_of_lane(l).direction;
   return lane_v_;
+}
+
+// Each outlet's free surface, the level its held particles' hydrostatic
+// pressure is measured from (Tafuni et al. 2018 hold an outflow's pressure
+// hydrostatic, as DualSPHysics's buffers do): the outlet's "level" where the
+// scene gives one, else half a spacing above the highest particle of the
+// fluid before its line (`place`: each particle's), along -g; -inf (no head)
+// where no fluid is before it, and without gravity.
+const std::vector<Real>& Context::outlet_surfaces(const Flows::Place* place,
+                                                  const std::int8_t* held) {
+  const Real none = -std::numeric_limits<Real>::infinity();
+  const std::vector<Outlet>& outlets = flows.outlets();
+  surface_.assign(outlets.size(), none);
+  const Real g = params_.gravity.norm();
+  if (!(g > 0)) return surface_;
+  const Vec2 up = -params_.gravity / g;
+  const Index n = size();
+  const Vec2* x = ps.x.data();
+  for (Index i = 0; i < n; ++i)
+    if (place[i].zone == Flows::kUpstream && !held[i]) {
+      Real& s = surface_[flows.outlet_index_of_lane(place[i].lane)];
+      s = std::max(s, x[i].dot(up));
+    }
+  for (std::size_t o = 0; o < outlets.size(); ++o) {
+    if (!std::isnan(outlets[o].level)) {
+      surface_[o] = outlets[o].level;
+    } else if (surface_[o] > none) {
+      surface_[o] += Real(0.5) * flows.spacing();
+    }
+  }
+  return surface_;
 }
 
 // The inlets' buffers on their lattice, at the inflow velocity of the step's end.

@@ -138,9 +138,15 @@ class Context {
   // method whose density is summed sets the reference pressure (a carried
   // density is held at rho0 there); null without outlets.
   const std::int8_t* outlet_held() const { return held_ ? held_->data() : nullptr; }
+  // With outlets, per particle: the pressure over the reference pressure a
+  // held particle holds, rho0 |g| times its depth below the surface of the
+  // fluid before its outlet (hydrostatic; 0 without gravity and where not
+  // held); null without outlets.
+  const Real* outlet_pressure() const { return head_ ? head_->data() : nullptr; }
   // The particles were replaced (Solver::set_state): none is held yet.
   void release_outlets() {
     if (held_) std::fill(held_->data(), held_->data() + size(), std::int8_t(0));
+    if (head_) std::fill(head_->data(), head_->data() + size(), Real(0));
   }
   // The flows changed: the outlets' per-particle fields made (or dropped),
   // the inlets' buffers added at time() (counted as entered) and the
@@ -226,11 +232,14 @@ class Context {
   std::vector<Vec2> new_x_, new_v_;  // scratch for the emitters' rows
   // Per particle, with outlets: whether it is held in an outlet's buffer.
   std::unique_ptr<Field<std::int8_t>> held_;
+  std::unique_ptr<Field<Real>> head_;  // outlet_pressure()
+  std::vector<Real> surface_;  // per outlet: outlet_surfaces()
   std::vector<Flows::Place> places_;  // scratch for the outlets
   std::vector<Real> lane_sum_;
   std::vector<Index> lane_count_;
   std::vector<Vec2> lane_v_;
   const std::vector<Vec2>& lane_velocities(const Flows::Place* place, const std::int8_t* held);
+  const std::vector<Real>& outlet_surfaces(const Flows::Place* place, const std::int8_t* held);
   // The outlets hold their buffers' velocities and let out what passed them.
   void hold_outlets();
   void hold_inlets();

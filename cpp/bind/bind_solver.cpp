@@ -52,6 +52,7 @@ Outlet to_outlet(const py::dict& d) {
   o.direction = to_point(d["direction"]);
   o.width = d["width"].cast<Real>();
   o.depth = d["depth"].cast<Real>();
+  if (d.contains("level")) o.level = d["level"].cast<Real>();
   return o;
 }
 

@@ -47,6 +47,10 @@ struct Outlet {
   Vec2 direction = Vec2(1, 0);
   Real width = 0;
   Real depth = 0;
+  // Under gravity, the height (along -g, m) of the free surface its held
+  // particles' hydrostatic pressure is measured from; NaN: the fluid's before
+  // the line (Context::outlet_surfaces).
+  Real level = std::numeric_limits<Real>::quiet_NaN();
 };
 
 // A region that removes the particles inside it: a polygon (a rectangle is
@@ -111,6 +115,9 @@ class Flows {
   int lanes() const { return lanes_; }
   // The outlet that lane l crosses.
   const Outlet& outlet_of_lane(int l) const { return outlets_[outlet_of_lane_[l]]; }
+  int outlet_index_of_lane(int l) const { return outlet_of_lane_[l]; }
+  // The lattice spacing of the buffers' rows, m.
+  Real spacing() const { return dx_; }
   // The rows the emitters give over the step (t, t + dt], appended to x and v:
   // each row where it has travelled since it left the nozzle, at the
   // emitter's speed at t + dt.

@@ -31,6 +31,12 @@ SPHFLUID_INLINE Real pressure(Real rho, Real rho0, Real B, Real pb) {
   return std::max(B * (r3 * r3 * r - 1) + pb, Real(0));
 }
 
+// W3 solved for the density whose pressure is p above the background
+// pressure: rho0 (1 + p / B)^(1/7) (W23's start, an outlet's held density).
+inline Real tait_density(Real p, Real rho0, Real B) {
+  return rho0 * std::pow(1 + p / B, 1 / kTaitGamma);
+}
+
 // The constants of the pair force: the particle mass, eps^2 = 0.01 hs^2,
 // alpha c0 hs and 2 m eta (hs = h/2, the smoothing length of a kernel of
 // support h).

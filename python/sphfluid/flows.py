@@ -104,6 +104,7 @@ class Outlet:
     direction: tuple  # any length; the core normalises it
     width: float  # m
     name: str = ""
+    level: float | None = None  # m along -g; None: the fluid's before the line
 
     def unit(self) -> np.ndarray:
         d = np.asarray(self.direction, float)
@@ -114,13 +115,15 @@ class Outlet:
         return _zone(self.at, self.unit(), self.width, depth)
 
     def to_core(self, depth: float) -> dict:
+        level = {} if self.level is None else {"level": self.level}
         return {"at": list(self.at), "direction": list(self.direction), "width": self.width,
-                "depth": depth}
+                "depth": depth, **level}
 
     def to_dict(self) -> dict:
         out: dict[str, Any] = {"name": self.name} if self.name else {}
+        level = {} if self.level is None else {"level": self.level}
         return {**out, "at": list(self.at), "direction": list(self.direction),
-                "width": self.width}
+                "width": self.width, **level}
 
 
 def _zone(at, unit, width: float, depth: float) -> np.ndarray:
@@ -312,7 +315,8 @@ def read_outlets(v, raw: list, lo, hi, depth: float | None, walls: list) -> list
         if not (math.isfinite(math.hypot(*direction)) and math.hypot(*direction) > 0):
             v.fail(f"{path}.direction", "must not be [0, 0]")
             continue
-        o = Outlet(at, direction, width, str(item.get("name", "")))
+        o = Outlet(at, direction, width, str(item.get("name", "")),
+                   v.number(item, "level", f"{path}."))
         if depth:
             _check_zone(v, o.zone(depth), path, _buffer(depth), lo, hi, walls)
         out.append(o)

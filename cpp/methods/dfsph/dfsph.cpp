@@ -167,7 +167,8 @@ void DfsphMethod::neighbours() {
 // The inlets' and outlets' buffers (boundary/flows.hpp) in the solves: an
 // inlet's particles keep the inflow's velocity (no value moves them) and
 // carry the fluid's values beside them (extrapolate_inflow); an outlet's held
-// particles (Context::outlet_held) hold the reference pressure, a value of 0,
+// particles (Context::outlet_held) hold the reference pressure, a value of 0
+// (the density solve adds the hydrostatic head under gravity, solve()),
 // their velocities moved by their neighbours' values. Neither is an unknown
 // of the conjugate residuals (whose matrix is then M without the buffers'
 // rows and columns and with the inlets' velocities held: still symmetric and
@@ -273,7 +274,7 @@ void DfsphMethod::density_solve(Real dt) {
   const Real ref = dfsph::reference_density(ps.rho.data(), n, P_.rho0, free_surface_);
   rho0s_.resize(n);
   for (Index i = 0; i < n; ++i) rho0s_[i] = P_.rho0 + share * (ps.rho[i] - ref);
-  const Solve s = solve(u_.data(), kappa_.data(), rho0s_.data(), dt, P_.density_tolerance);
+  const Solve s = solve(u_.data(), kappa_.data(), rho0s_.data(), dt, P_.density_tolerance, true);
   const Real inv_dt = 1 / dt;
   for (Index i = 0; i < n; ++i) a[i] = (u_[i] - v[i]) * inv_dt;
   stats_.density_iterations = s.iterations;
@@ -305,7 +306,8 @@ void DfsphMethod::divergence_solve(Real dt) {
 // tolerance; the values are then projected on k >= 0 (with a free surface)
 // and applied, and the errors measured again (another pass if the
 // projection left them above it). Iterations: matrix products.
-DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol) {
+DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol,
+                                      bool head) {
   Solve s;
   const Index n = ctx_.size();
   if (n == 0) {
@@ -315,9 +317,15 @@ DfsphMethod::Solve DfsphMethod::solve(Vec2* u, Real* k, const Real* base, Real d
   for (std::vector<Real>* v : {&x_, &r_, &z_, &p_, &az_, &ap_, &dk_, &e_}) v->resize(n);
   active_.resize(n);
   du_.resize(n);
+  // (an outlet's held value, p = k rho^2: the reference pressure, 0, plus the
+  // head; no iteration changes it)
+  const Real* held = head ? ctx_.outlet_pressure() : nullptr;
+  const Real* rho = ctx_.ps.rho.data();
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {
-    dk_[i] = roles_.empty() || roles_[i] != kOutflow ? dfsph::kWarmStart * k[i] : Real(0);
+    dk_[i] = roles_.empty() || roles_[i] != kOutflow ? dfsph::kWarmStart * k[i]
+             : held                                  ? held[i] / (rho[i] * rho[i])
+                                                     : Real(0);
     k[i] = 0;
   }
   apply(u, k, dt);

@@ -83,7 +83,9 @@ class DfsphMethod final : public SphMethod {
     Real error = 0;
     bool converged = false;
   };
-  Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol);
+  // head: an outlet's held particles hold the hydrostatic pressure under
+  // gravity (Context::outlet_pressure; the density solve), else 0.
+  Solve solve(Vec2* u, Real* k, const Real* base, Real dt, Real tol, bool head = false);
   void conjugate_residuals(const Real* k, Real dt, Real tol, int& iterations);
   void start_residuals(const Real* k, Real inv_dt2);
   Real residual_step(Real alpha, Real inv_dt2);

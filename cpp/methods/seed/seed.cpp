@@ -177,10 +177,16 @@ void SeedMethod::finish_eos(Index i0, Index i1) {
         pf[i] = static_cast<float>(pi * inv_rho0);
         ir[i] = static_cast<float>(rho0 * ri);
       }
-      // An outlet's buffer holds the reference pressure (Context::outlet_held).
-      if (const std::int8_t* held = ctx_.outlet_held())
+      // An outlet's buffer holds the reference pressure, plus the hydrostatic
+      // head under gravity (Context::outlet_held, outlet_pressure).
+      if (const std::int8_t* held = ctx_.outlet_held()) {
+        const Real* head = ctx_.outlet_pressure();
         for (Index i = i0; i < i1; ++i)
-          if (held[i]) p[i] = pf[i] = 0;
+          if (held[i]) {
+            p[i] = head[i];
+            pf[i] = static_cast<float>(head[i] * inv_rho0);
+          }
+      }
       return;
     }
   }
@@ -188,10 +194,13 @@ void SeedMethod::finish_eos(Index i0, Index i1) {
     p[i] = seed::pressure(k, rho[i], rho0);
     inv_rho[i] = 1 / rho[i];
   }
-  // An outlet's buffer holds the reference pressure (Context::outlet_held).
-  if (const std::int8_t* held = ctx_.outlet_held())
+  // An outlet's buffer holds the reference pressure, plus the hydrostatic
+  // head under gravity (Context::outlet_held, outlet_pressure).
+  if (const std::int8_t* held = ctx_.outlet_held()) {
+    const Real* head = ctx_.outlet_pressure();
     for (Index i = i0; i < i1; ++i)
-      if (held[i]) p[i] = 0;
+      if (held[i]) p[i] = head[i];
+  }
 }
 
 // Pressure (eq. 14), viscosity (17) and colour-field surface tension (18-20);

@@ -91,7 +91,7 @@ void DeltaWcsphMethod::particles_added(Index first) {
   const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
   for (Index i = first; i < n; ++i) {
     const Real depth = top[column(i)] - ps.x[i].dot(up) + Real(0.5) * dx;
-    ps.rho[i] = P_.rho0 * std::pow(1 + P_.rho0 * gl * depth / B, 1 / wcsph::kTaitGamma);
+    ps.rho[i] = wcsph::tait_density(P_.rho0 * gl * depth, P_.rho0, B);
   }
 }
 

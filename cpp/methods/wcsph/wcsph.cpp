@@ -123,13 +123,16 @@ void WcsphMethod::state() {
     inv_rho[i] = ir;
     por2[i] = p_i * ir * ir;
   }
-  // An outlet's buffer holds the reference pressure (Context::outlet_held).
-  if (const std::int8_t* held = ctx_.outlet_held())
+  // An outlet's buffer holds the reference pressure, plus the hydrostatic
+  // head under gravity (Context::outlet_held, outlet_pressure).
+  if (const std::int8_t* held = ctx_.outlet_held()) {
+    const Real* head = ctx_.outlet_pressure();
     for (Index i = 0; i < n; ++i)
       if (held[i]) {
-        p[i] = wcsph::pressure(rho0, rho0, B, pb);
+        p[i] = wcsph::pressure(rho0, rho0, B, pb) + head[i];
         por2[i] = p[i] * inv_rho[i] * inv_rho[i];
       }
+  }
   ctx_.timer.mark(kDensity);
 }
 
