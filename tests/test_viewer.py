@@ -16,7 +16,7 @@ pygame = pytest.importorskip("pygame")
 import sphfluid
 from sphfluid.cli import main
 from sphfluid.metadata import scene_hash
-from sphfluid.viewer import BACKGROUND, MODES, Renderer, save_scene
+from sphfluid.viewer import BACKGROUND, MODES, SINK, Renderer, save_scene
 
 
 @pytest.fixture
@@ -475,3 +475,19 @@ def test_m_makes_the_wall_under_the_cursor_a_paddle_and_again_stops_it(display, 
     assert sim.walls[right][0][0] == pytest.approx(x_now) and sim.scene.walls[right][0][0] == \
         pytest.approx(x_now)
     assert editor.toggle_motion(*px((0.5, 0.7))) == ""  # no wall there
+
+
+@pytest.mark.parametrize("level", [None, 0.3])
+def test_an_outlets_held_level_is_drawn_across_its_buffer(display, level):
+    d = json.loads(json.dumps(BASE_SCENE))
+    d["domain"]["max"] = [1.3, 1.1]
+    d["walls"] = [{"polyline": [[0.0, 1.0], [0.0, 0.0], [1.3, 0.0]]}]
+    d["outlets"] = [{"at": [0.5, 0.4], "direction": [1, 0], "width": 0.8}]
+    if level is not None:
+        d["outlets"][0]["level"] = level
+    sim = sphfluid.Simulation(d)
+    depth = sim.scene.buffer_depth()
+    img, r = render(sim, "speed")
+    (x,), (y,) = r.camera.to_screen(np.array([[0.5 + depth / 2, 0.3]]))
+    drawn = [tuple(img[int(round(x)), int(round(y)) + k]) == SINK for k in (-1, 0, 1)]
+    assert any(drawn) == (level is not None)

@@ -112,6 +112,19 @@ class Camera:
         return ((px - self.ox) / self.scale, (self.oy - py) / self.scale)
 
 
+def level_line(ring: np.ndarray, gravity, level: float | None) -> np.ndarray | None:
+    """Where an outlet's held level (m along -g) crosses its buffer (the
+    polygon ring, (4, 2)): the two ends (2, 2), or None (no level, no gravity,
+    or the level above or below the buffer)."""
+    g = np.asarray(gravity, float)
+    if level is None or not np.hypot(*g) > 0:
+        return None
+    z = ring @ (-g / np.hypot(*g)) - level  # each corner's height above the level
+    ends = [ring[k] + z[k] / (z[k] - z[k - 1]) * (ring[k - 1] - ring[k])
+            for k in range(len(ring)) if (z[k] > 0) != (z[k - 1] > 0)]
+    return np.array(ends[:2]) if len(ends) >= 2 else None
+
+
 class Renderer:
     """Draws a simulation into pygame surfaces in one of the colour modes."""
 
@@ -189,10 +202,7 @@ class Renderer:
             pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 2)
         t, dx = self.sim.time, scene.spacing
         if scene.inlets or scene.outlets:
-            depth = scene.buffer_depth()
-            zones = [e.zone(dx, depth) for e in scene.inlets]
-            for ring in zones + [o.zone(depth) for o in scene.outlets]:
-                pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 1)
+            self.draw_buffers(surface)
         for e in (*scene.emitters, *scene.inlets):
             on = e.start <= t and (e.stop is None or t < e.stop)
             colour = EMITTER if on else tuple(c // 2 for c in EMITTER)
@@ -206,6 +216,20 @@ class Renderer:
             arrow = np.array([e.at, tip, tip - dx * d + across * 2, tip, tip - dx * d - across * 2])
             ax, ay = cam.to_screen(arrow)
             pg.draw.lines(surface, colour, False, list(zip(ax, ay)), 2)
+
+    def draw_buffers(self, surface) -> None:
+        """The inlets' and outlets' buffers outlined, an outlet's held level as a
+        line across its buffer."""
+        pg, scene = self.pygame, self.sim.scene
+        depth = scene.buffer_depth()
+        zones = [e.zone(scene.spacing, depth) for e in scene.inlets]
+        for ring in zones + [o.zone(depth) for o in scene.outlets]:
+            pg.draw.polygon(surface, SINK, self.screen_ring(np.vstack([ring, ring[:1]])), 1)
+        for o in scene.outlets:
+            ends = level_line(o.zone(depth), scene.gravity, o.level)
+            if ends is not None:
+                sx, sy = self.camera.to_screen(ends)
+                pg.draw.line(surface, SINK, (sx[0], sy[0]), (sx[1], sy[1]), 2)
 
     def sink_rings(self) -> list:
         """The scene's sinks as closed outlines (k, 2) in world coordinates."""
