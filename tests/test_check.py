@@ -290,3 +290,16 @@ def test_the_seed_and_wcsph_take_a_support_of_one_and_a_half_spacings(tmp_path, 
         scene_dict["solver"]["method"] = method
         code, out = check(tmp_path, scene_dict, capsys)
         assert code == 0 and "smoothing_length" not in out
+
+
+@pytest.mark.parametrize("gravity, warned", [([0.0, 0.0], True), ([0.0, -9.81], False)])
+def test_an_outlets_level_without_gravity_is_a_warning(tmp_path, scene_dict, capsys, gravity,
+                                                       warned):
+    scene_dict["gravity"] = gravity
+    scene_dict["domain"]["max"] = [1.3, 1.1]
+    scene_dict["walls"] = [{"polyline": [[0.0, 1.0], [0.0, 0.0], [1.3, 0.0]]}]
+    scene_dict["outlets"] = [{"at": [0.5, 0.4], "direction": [1, 0], "width": 0.8,
+                              "level": 0.3}]
+    code, out = check(tmp_path, scene_dict, capsys)
+    assert code == 0
+    assert ("warning: outlets[0].level: has no effect without gravity" in out) == warned

@@ -167,6 +167,10 @@ def check_scene(scene: Scene, raw: Mapping[str, Any] | None = None) -> Report:
 
     findings += wall_gaps(scene, raw)
     findings += support_findings(scene)
+    if not any(scene.gravity):
+        findings += [Finding("warning", f"outlets[{i}].level", "has no effect without gravity: "
+                             "the outlet holds the reference pressure")
+                     for i, o in enumerate(scene.outlets) if o.level is not None]
 
     limit = step_limit(scene)
     if scene.time_step is not None and scene.time_step > limit.dt:
