@@ -1,14 +1,15 @@
 """An outlet under gravity: water 0.1 m deep over a 1.6 m flat floor, fed at
 0.3 m/s by an inlet across its depth and let out by an outlet 0.3 m wide (the
-free surface crosses it), wcsph's defaults (water, dx = 0.01 m), the fluid
+free surface crosses it), the method's defaults (water, dx = 0.01 m), the fluid
 at rest on the lattice at the start. Every 0.5 s: the particles, the surface
 height in 0.2 m bins along the flume (the highest particle plus half a
 spacing), and the mean pressure of the bottom rows just before the outlet
 (docs/scene-format.md, "Inlets and outlets").
 
-    python benchmarks/experiments/outlet_flume.py [DURATION] [LEVEL]
+    python benchmarks/experiments/outlet_flume.py [DURATION] [LEVEL] [METHOD]
 
-LEVEL sets the outlet's "level" (m); without it the outlet takes the fluid's.
+LEVEL sets the outlet's "level" (m; "-" or nothing: the fluid's); METHOD is
+wcsph (the default), the seed or dfsph.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import sphfluid
 DX, DEPTH, SPEED, LENGTH = 0.01, 0.1, 0.3, 1.6
 
 
-def scene(buffer: float, level: float | None) -> dict:
+def scene(buffer: float, level: float | None, method: str) -> dict:
     end = LENGTH + 2 * buffer + 0.05
     outlet = {"at": [buffer + LENGTH, 0.15], "direction": [1, 0], "width": 0.3}
     if level is not None:
@@ -33,7 +34,9 @@ def scene(buffer: float, level: float | None) -> dict:
          "fluid_regions": [{"shape": "rectangle", "min": [buffer, 0.0],
                             "max": [buffer + LENGTH, DEPTH]}],
          "walls": [{"polyline": [[0.0, 0.4], [0.0, 0.0], [end, 0.0]]}],
-         "solver": {"method": "wcsph", "time_step": "auto"}}
+         "solver": {"method": method, "time_step": "auto"}}
+    if method == "seed":  # the bundled scenes' viscous fluid
+        d["fluid"] = {"rest_density": 1000.0, "gas_constant": 250.0, "viscosity": 30.0}
     if buffer:
         d["inlets"] = [{"at": [buffer, DEPTH / 2], "direction": [1, 0], "width": DEPTH,
                         "speed": SPEED}]
@@ -43,14 +46,19 @@ def scene(buffer: float, level: float | None) -> dict:
 
 def main() -> None:
     duration = float(sys.argv[1]) if len(sys.argv) > 1 else 4.0
-    level = float(sys.argv[2]) if len(sys.argv) > 2 else None
-    buffer = sphfluid.load_scene(scene(0.0, None)).buffer_depth()
-    sim = sphfluid.Simulation(scene(buffer, level))
+    level = float(sys.argv[2]) if len(sys.argv) > 2 and sys.argv[2] != "-" else None
+    method = sys.argv[3] if len(sys.argv) > 3 else "wcsph"
+    buffer = sphfluid.load_scene(scene(0.0, None, method)).buffer_depth()
+    sim = sphfluid.Simulation(scene(buffer, level, method))
     edges = np.arange(buffer, buffer + LENGTH + 1e-9, 0.2)
     print(f"surface height (m) in 0.2 m bins from the inlet; outlet level: "
           f"{'the fluid' + chr(39) + 's' if level is None else level}")
     for t in np.arange(0.5, duration + 1e-9, 0.5):
-        sim.advance_to(float(t))
+        try:
+            sim.advance_to(float(t))
+        except sphfluid.InstabilityError as e:
+            print(f"stopped: {e}")
+            return
         x, y = sim.positions.T
         top = []
         for a in edges[:-1]:
