@@ -385,3 +385,10 @@ def test_an_outlets_buffer_continues_the_fluids_pressure_under_gravity():
         after = p[in_row & (x > 0.53 + 0.005) & (x < 0.53 + 0.025)].mean()
         assert before > 500
         assert abs(after - before) < 0.1 * before, (row, before, after)
+
+
+@pytest.mark.parametrize("level", [None, 0.1])
+def test_one_and_two_threads_identical_with_an_outlet_under_gravity(level):
+    """The outlet's surface (the highest particle before its line) and head."""
+    sim = same_on_one_and_two_threads(open_channel("wcsph", level), 0.3)
+    assert sim.balance["out"] > 20
