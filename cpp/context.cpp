@@ -245,8 +245,9 @@ void Context::hold_outlets() {
     place[i] = flows.outlet_place(x[i], reach);
     leaving |= place[i].zone == Flows::kPast;
   }
-  const std::vector<Vec2>& lane_v = lane_velocities(place, held);
-  const std::vector<Real>& surface = outlet_surfaces(place, held);
+  outlet_lanes(place, held);
+  const std::vector<Vec2>& lane_v = lane_v_;
+  const std::vector<Real>& surface = surface_;
   // The carried density (continuity) held at the density of its pressure: the
   // reference pressure plus the hydrostatic head (a summed density's pressure
   // is set by the method from outlet_pressure()).
@@ -279,49 +280,42 @@ void Context::hold_outlets() {
     });
 }
 
-// Each outlet lane's velocity: straight out at the mean speed across the line
-// of the fluid before it (`place`: each particle's), zero where that flows
-// back or is missing; summed in index order.
-const std::vector<Vec2>& Context::lane_velocities(const Flows::Place* place,
-                                                  const std::int8_t* held) {
+// From the fluid before the outlets' lines (`place`: each particle's), in one
+// pass in index order:
+// - each lane's velocity: straight out at the mean speed across the line,
+//   zero where that flows back or is missing;
+// - each outlet's free surface, the level its held particles' hydrostatic
+//   pressure is measured from (Tafuni et al. 2018 hold an outflow's pressure
+//   hydrostatic, as DualSPHysics's buffers do): the outlet's "level" where the
+//   scene gives one, else half a spacing above the highest particle before its
+//   line, along -g; -inf (no head) where no fluid is before it, and without
+//   gravity.
+void Context::outlet_lanes(const Flows::Place* place, const std::int8_t* held) {
   const Index n = size();
   const Vec2* v = ps.v.data();
+  const Vec2* x = ps.x.data();
+  const Real none = -std::numeric_limits<Real>::infinity();
+  const std::vector<Outlet>& outlets = flows.outlets();
+  const Real g = params_.gravity.norm();
+  const Vec2 up = g > 0 ? Vec2(-params_.gravity / g) : Vec2::Zero();
   lane_sum_.assign(flows.lanes(), 0);
   lane_count_.assign(flows.lanes(), 0);
+  surface_.assign(outlets.size(), none);
   for (Index i = 0; i < n; ++i)
     if (place[i].zone == Flows::kUpstream && !held[i]) {
       const int l = place[i].lane;
       lane_sum_[l] += v[i].dot(flows.outlet_of_lane(l).direction);
       ++lane_count_[l];
+      if (g > 0) {
+        Real& s = surface_[flows.outlet_index_of_lane(l)];
+        s = std::max(s, x[i].dot(up));
+      }
     }
   lane_v_.assign(flows.lanes(), Vec2::Zero());
   for (int l = 0; l < flows.lanes(); ++l)
     if (lane_count_[l] > 0 && lane_sum_[l] > 0)
       lane_v_[l] = lane_sum_[l] / Real(lane_count_[l]) * flows.outlet_of_lane(l).direction;
-  return lane_v_;
-}
-
-// Each outlet's free surface, the level its held particles' hydrostatic
-// pressure is measured from (Tafuni et al. 2018 hold an outflow's pressure
-// hydrostatic, as DualSPHysics's buffers do): the outlet's "level" where the
-// scene gives one, else half a spacing above the highest particle of the
-// fluid before its line (`place`: each particle's), along -g; -inf (no head)
-// where no fluid is before it, and without gravity.
-const std::vector<Real>& Context::outlet_surfaces(const Flows::Place* place,
-                                                  const std::int8_t* held) {
-  const Real none = -std::numeric_limits<Real>::infinity();
-  const std::vector<Outlet>& outlets = flows.outlets();
-  surface_.assign(outlets.size(), none);
-  const Real g = params_.gravity.norm();
-  if (!(g > 0)) return surface_;
-  const Vec2 up = -params_.gravity / g;
-  const Index n = size();
-  const Vec2* x = ps.x.data();
-  for (Index i = 0; i < n; ++i)
-    if (place[i].zone == Flows::kUpstream && !held[i]) {
-      Real& s = surface_[flows.outlet_index_of_lane(place[i].lane)];
-      s = std::max(s, x[i].dot(up));
-    }
+  if (!(g > 0)) return;
   for (std::size_t o = 0; o < outlets.size(); ++o) {
     if (!std::isnan(outlets[o].level)) {
       surface_[o] = outlets[o].level;
@@ -329,7 +323,6 @@ const std::vector<Real>& Context::outlet_surfaces(const Flows::Place* place,
       surface_[o] += Real(0.5) * flows.spacing();
     }
   }
-  return surface_;
 }
 
 // The inlets' buffers on their lattice, at the inflow velocity of the step's end.

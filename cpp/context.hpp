@@ -233,13 +233,13 @@ class Context {
   // Per particle, with outlets: whether it is held in an outlet's buffer.
   std::unique_ptr<Field<std::int8_t>> held_;
   std::unique_ptr<Field<Real>> head_;  // outlet_pressure()
-  std::vector<Real> surface_;  // per outlet: outlet_surfaces()
+  std::vector<Real> surface_;  // per outlet: outlet_lanes()
   std::vector<Flows::Place> places_;  // scratch for the outlets
   std::vector<Real> lane_sum_;
   std::vector<Index> lane_count_;
   std::vector<Vec2> lane_v_;
-  const std::vector<Vec2>& lane_velocities(const Flows::Place* place, const std::int8_t* held);
-  const std::vector<Real>& outlet_surfaces(const Flows::Place* place, const std::int8_t* held);
+  // lane_v_ and surface_ (per lane, per outlet) from the fluid before the lines.
+  void outlet_lanes(const Flows::Place* place, const std::int8_t* held);
   // The outlets hold their buffers' velocities and let out what passed them.
   void hold_outlets();
   void hold_inlets();

@@ -49,7 +49,7 @@ struct Outlet {
   Real depth = 0;
   // Under gravity, the height (along -g, m) of the free surface its held
   // particles' hydrostatic pressure is measured from; NaN: the fluid's before
-  // the line (Context::outlet_surfaces).
+  // the line (Context::outlet_lanes).
   Real level = std::numeric_limits<Real>::quiet_NaN();
 };
 
