@@ -146,6 +146,12 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
   particles_set();
 }
 
+void Solver::settle_fluid() {
+  ctx_.particles_changed();
+  method_->fluid_filled();
+  particles_set();
+}
+
 void Solver::add_particles(const std::vector<Vec2>& positions,
                            const std::vector<Vec2>& velocities) {
   check_state(positions, velocities, {});

@@ -6,10 +6,11 @@ it up but for the smoothing length, and the time per step on the benchmark's
 k in a fresh process, the k's in turn in each round, medians over the rounds),
 beside the summed density's (k = 2).
 
-    python benchmarks/experiments/support_sweep.py accuracy 2,2.5,3,3.5
+    python benchmarks/experiments/support_sweep.py accuracy 2,2.5,3,3.5 [CASE:N/N,...]
     python benchmarks/experiments/support_sweep.py cost 2,2.5,3,3.5 [ROUNDS]
 
-One JSON line per run.
+One JSON line per run. The accuracy's cases and resolutions are PLAN's unless
+given, e.g. `wall_pressure:20/40,wave_maker:10/20,basin:30`.
 """
 from __future__ import annotations
 
@@ -22,13 +23,22 @@ import time
 PLAN = [("taylor_green", (25, 50)), ("poiseuille", (20, 40)), ("hydrostatic", (20, 40)),
         ("dam_break", (20, 40)), ("cavity", (25, 50))]
 METRICS = ("decay rate error", "max |v| / sqrt(gH)", "99.9 % of |rho/rho0 - 1| within",
-           "mean |dZ|, best shift")
+           "mean |dZ|, best shift", "splashed out of the basin")
 
 
-def accuracy(ratios: list[float]) -> None:
+def parse_plan(text: str) -> list[tuple[str, tuple[int, ...]]]:
+    """"case:20/40,case:30" as PLAN's entries."""
+    plan = []
+    for item in text.split(","):
+        name, _, ns = item.partition(":")
+        plan.append((name, tuple(int(n) for n in ns.split("/"))))
+    return plan
+
+
+def accuracy(ratios: list[float], plan=PLAN) -> None:
     from sphfluid.validation import cases
 
-    for name, resolutions in PLAN:
+    for name, resolutions in plan:
         base = type(cases.CASES[name])
         for k in ratios:
             class Case(base):
@@ -81,7 +91,8 @@ if __name__ == "__main__":
     if what == "_one":
         print(step_time(ks))
     elif what == "accuracy":
-        accuracy([float(k) for k in ks.split(",")])
+        accuracy([float(k) for k in ks.split(",")],
+                 parse_plan(sys.argv[3]) if len(sys.argv) > 3 else PLAN)
     elif what == "cost":
         cost(ks.split(","), int(sys.argv[3]) if len(sys.argv) > 3 else 3)
     else:

@@ -163,6 +163,10 @@ void def_editing(SolverClass& c) {
           },
           py::arg("positions"), py::arg("velocities"), py::arg("ids") = py::none(),
           "Replace all particles (n may change); ids default to 0..n-1.")
+      .def("settle_fluid", &Solver::settle_fluid, py::call_guard<py::gil_scoped_release>(),
+           "The particles are the scene's fluid as its regions filled the lattice: "
+           "wcsph's continuity density compresses them along gravity to its "
+           "hydrostatic start (docs/method-wcsph.md, W23b); other methods leave them.")
       .def(
           "add_particles",
           [](Solver& s, const InArray& x, const InArray& v) {

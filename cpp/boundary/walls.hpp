@@ -187,6 +187,11 @@ class WallSet {
     const Index c = cell_of(p0);
     return c < 0 || c != cell_of(p1) || cell_start_[c] != cell_start_[c + 1];
   }
+  // Whether the path p0 -> p1 meets a wall as the walls stand.
+  bool meets(const Vec2& p0, const Vec2& p1) const {
+    Real s_hit;
+    return may_hit(p0, p1) && first_hit(p0, p1, s_hit) >= 0;
+  }
 #if SPHFLUID_AVX512
   // may_hit for eight paths at once: from (x0[k], y0[k]) to (x1[k], y1[k]) on
   // the lanes of `lanes`; the lanes whose path may meet a wall.

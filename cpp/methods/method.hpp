@@ -52,6 +52,9 @@ class SphMethod {
   // Particles [first, size) were just set or added: a method that carries
   // state of its own (a density) gives them their initial values.
   virtual void particles_added(Index first) { (void)first; }
+  // The particles are the scene's fluid as its regions filled the lattice
+  // (Solver::settle_fluid, after particles_added(0)): a method may settle them.
+  virtual void fluid_filled() {}
   // The inlets or outlets changed and no particle was added (Solver::
   // set_flows removed one, or moved a line): a method that keeps which
   // particles are in their buffers finds them again.

@@ -144,6 +144,10 @@ class Solver(metaclass=_Pybind11Type):
     def set_state(self, positions: ArrayLike, velocities: ArrayLike,
                   ids: ArrayLike | None = None) -> None:
         """Replace all particles (n may change); ids default to 0..n-1."""
+    def settle_fluid(self) -> None:
+        """The particles are the scene's fluid as its regions filled the lattice: wcsph's
+        continuity density compresses them along gravity to its hydrostatic start
+        (docs/method-wcsph.md, W23b); other methods leave them."""
     def add_particles(self, positions: ArrayLike, velocities: ArrayLike) -> None:
         """Append particles (n, 2) with fresh ids; those outside the domain are removed."""
     def set_walls(self, walls: ArrayLike) -> None:

@@ -203,10 +203,13 @@ class Simulation:
 
     @_one_thread
     def reset(self) -> None:
-        """Start again from the scene's initial particles at t = 0."""
+        """Start again from the scene's initial particles at t = 0 (with wcsph's
+        continuity density, compressed along gravity to their hydrostatic
+        density: docs/method-wcsph.md, W23b)."""
         pos, vel = self.scene.lattice_points()
         self._solver = _core.Solver(_params(self.scene, self._threads), pos, vel,
                                     _wall_array(self.scene))
+        self._solver.settle_fluid()  # wcsph's compressed start (method-wcsph.md, W23b)
         if self.scene.wall_velocities:  # sliding surfaces (docs/method-wcsph.md, W25)
             self._solver.set_wall_velocities(np.asarray(self.scene.wall_velocities, float))
         if self.scene.wall_motions:  # moving walls (flows.WallMotion)

@@ -11,6 +11,8 @@
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include "integrate.hpp"
 #include "methods/wcsph/delta_pairs.hpp"
@@ -34,7 +36,7 @@ constexpr Real kShiftSpeed = 1.0;
 DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
     : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
   walls_.build(P_.spacing, P_.mass / P_.rho0, true);  // rows fixed to the wall (W20)
-  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  const Real dx = spacing();
   inv_wdx_ = 1 / kernel_.value(dx);
   open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
   inv_s_ = 1 / delta::gradient_normalisation(kernel_, dx, P_.mass / P_.rho0);  // W29
@@ -54,28 +56,40 @@ void DeltaWcsphMethod::select(unsigned features) {
   eval_fn_ = evals[features];
 }
 
+// Whether a fluid at rest carries a hydrostatic pressure (W23): gravity, and
+// no periodic axis along it.
+bool DeltaWcsphMethod::hydrostatic() const {
+  const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
+                          (P_.periodic_y && P_.gravity.y() != 0);
+  return P_.gravity.norm() > 0 && !along_seam;
+}
+
+// Particle i's column: one spacing wide, across gravity (W23, W23b).
+std::int64_t DeltaWcsphMethod::column(Index i) const {
+  const Vec2 up = -P_.gravity.normalized(), across(up.y(), -up.x());
+  return static_cast<std::int64_t>(std::floor(ctx_.ps.x[i].dot(across) / spacing()));
+}
+
+Real DeltaWcsphMethod::spacing() const {
+  return P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+}
+
 // New particles start at the density of the hydrostatic pressure at their
 // depth below the fluid above them (W23): the highest particle of their
-// column (one spacing wide, across gravity) is half a spacing below the
-// surface. Without gravity, or with a periodic axis along it, at rho0.
+// column is half a spacing below the surface. Without gravity, or with a
+// periodic axis along it, at rho0.
 void DeltaWcsphMethod::particles_added(Index first) {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   if (first == 0) {  // a new fluid (set_state): "auto" shifting decides again
     shape_known_ = confined_ = shift_ready_ = false;
   }
-  const Real gl = P_.gravity.norm();
-  const bool along_seam = (P_.periodic_x && P_.gravity.x() != 0) ||
-                          (P_.periodic_y && P_.gravity.y() != 0);
-  if (!(gl > 0) || along_seam) {
+  if (!hydrostatic()) {
     for (Index i = first; i < n; ++i) ps.rho[i] = P_.rho0;
     return;
   }
-  const Vec2 up = -P_.gravity / gl, across(up.y(), -up.x());
-  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
-  auto column = [&](Index i) {
-    return static_cast<std::int64_t>(std::floor(ps.x[i].dot(across) / dx));
-  };
+  const Real gl = P_.gravity.norm();
+  const Vec2 up = -P_.gravity / gl;
   // The highest particle of each new particle's column (of every column for
   // a new fluid; an emitter's rows are in a few).
   std::unordered_map<std::int64_t, Real> top;
@@ -88,11 +102,52 @@ void DeltaWcsphMethod::particles_added(Index first) {
     Real& z = top[column(i)];
     z = std::max(z, ps.x[i].dot(up));
   }
-  const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma;
+  const Real B = P_.rho0 * P_.c0 * P_.c0 / wcsph::kTaitGamma, half = Real(0.5) * spacing();
   for (Index i = first; i < n; ++i) {
-    const Real depth = top[column(i)] - ps.x[i].dot(up) + Real(0.5) * dx;
+    const Real depth = top[column(i)] - ps.x[i].dot(up) + half;
     ps.rho[i] = wcsph::tait_density(P_.rho0 * gl * depth, P_.rho0, B);
   }
+}
+
+// W23b: the scene's fluid, at W23's densities, compressed along gravity to
+// them. In each column, from its lowest particle up, every gap along gravity
+// (and the half spacing below the lowest particle, down to what it rests on)
+// shrinks by rho0 / rho, the mean of its two ends' (a gap wider than 1.5
+// spacings, or one a wall crosses, ends a run: the run above it rests on its
+// own lowest particle; a particle whose move would meet a wall stays and
+// starts one). Across gravity nothing moves; the densities stay: the weight
+// above a particle is its column's mass, however compressed.
+void DeltaWcsphMethod::fluid_filled() {
+  if (!hydrostatic()) return;
+  ParticleSet& ps = ctx_.ps;
+  const Index n = ps.size();
+  const Vec2 up = -P_.gravity.normalized();
+  std::vector<std::pair<std::int64_t, Real>> key(n);
+  std::vector<Index> order(n);
+  for (Index i = 0; i < n; ++i) {
+    key[i] = {column(i), ps.x[i].dot(up)};
+    order[i] = i;
+  }
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+    return key[a] < key[b] || (key[a] == key[b] && a < b);
+  });
+  const WallSet& walls = ctx_.walls;
+  const Real rho0 = P_.rho0, dx = spacing();
+  std::vector<Real> drop(n, 0);
+  Real shift = 0;  // the particle below's move
+  for (Index k = 0; k < n; ++k) {
+    const Index i = order[k], j = k > 0 ? order[k - 1] : i;
+    const Real gap = key[i].second - key[j].second;
+    if (k > 0 && key[j].first == key[i].first && gap <= Real(1.5) * dx &&
+        !walls.meets(ps.x[j], ps.x[i])) {
+      shift += gap * (1 - Real(0.5) * (rho0 / ps.rho[i] + rho0 / ps.rho[j]));
+    } else {
+      shift = Real(0.5) * dx * (1 - rho0 / ps.rho[i]);
+    }
+    if (walls.meets(ps.x[i], ps.x[i] - shift * up)) shift = 0;
+    drop[i] = shift;
+  }
+  for (Index i = 0; i < n; ++i) ps.x[i] -= drop[i] * up;
 }
 
 void DeltaWcsphMethod::make_shift_fields() {
@@ -484,7 +539,7 @@ bool DeltaWcsphMethod::shift_for(Real dt) {
   for (Index i = 0; i < n; ++i) v2 = std::max(v2, ps.v[i].squaredNorm());
   const Real scale = -P_.shifting * std::sqrt(v2) * dt * Real(0.5) * P_.h;
   if (!(scale < 0)) return false;
-  const Real dx = P_.spacing > 0 ? P_.spacing : std::sqrt(P_.mass / P_.rho0);
+  const Real dx = spacing();
   const Real cap = std::min(kShiftCap * dx, kShiftSpeed * std::sqrt(v2) * dt);
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
   for (Index i = 0; i < n; ++i) {

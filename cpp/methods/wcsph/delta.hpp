@@ -12,6 +12,7 @@
 #pragma once
 
 #include <memory>
+#include <cstdint>
 #include <vector>
 
 #include "context.hpp"
@@ -34,6 +35,7 @@ class DeltaWcsphMethod final : public SphMethod {
   void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
   void evaluate() override { eval_fn_(*this); }
   void particles_added(Index first) override;
+  void fluid_filled() override;
   // "auto" shifting's decision, whether the next drift shifts, and the last
   // drift's shift rate (W27), as numbers.
   std::vector<Real> carried() const override;
@@ -56,6 +58,9 @@ class DeltaWcsphMethod final : public SphMethod {
   };
 
  private:
+  bool hydrostatic() const;
+  std::int64_t column(Index i) const;
+  Real spacing() const;
   template <unsigned F> void step_impl(Real dt, Real dt_cap);
   // The evaluation after a drift of dt (the density drifts by dt times its
   // rate; dt = 0: none), and with half > 0 the second half-kick.
