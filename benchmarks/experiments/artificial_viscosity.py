@@ -5,8 +5,9 @@ default) takes and gives, n cells across the depth, for each alpha given:
   the first harmonic (period T, fitted over 3-12 s) over linear theory's at
   gauges 0.3 to 1.8 m from the piston (the validation's gauge is at 1.0 m);
 - the tank at rest filled on the lattice (validation case hydrostatic): its
-  largest speed over sqrt(gH) at t = 0.5 to 5 s (the standing waves its
-  settling starts).
+  largest speed over sqrt(gH) at t = 0.5 to 5 s (the square lattice's
+  instability under pressure, which alpha alone damps; docs/method-wcsph.md,
+  "The square lattice under pressure").
 
 VALIDATION.md, "Piston wave maker"; docs/method-wcsph.md, "Choices".
 
