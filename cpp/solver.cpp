@@ -147,8 +147,8 @@ void Solver::set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities
 }
 
 void Solver::settle_fluid() {
+  if (!method_->fluid_filled()) return;  // the constructor's evaluation stands
   ctx_.particles_changed();
-  method_->fluid_filled();
   particles_set();
 }
 

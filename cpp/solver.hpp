@@ -65,7 +65,7 @@ class Solver {
   void set_state(std::vector<Vec2> positions, std::vector<Vec2> velocities, std::vector<Id> ids);
   // The particles are the scene's fluid as its regions filled the lattice: a
   // method may settle them (wcsph's continuity density compresses them to its
-  // hydrostatic start, W23b); the forces are evaluated again.
+  // hydrostatic start, W23b); where one did, the forces are evaluated again.
   void settle_fluid();
   // Append particles with fresh ids (one above the largest in use).
   void add_particles(const std::vector<Vec2>& positions, const std::vector<Vec2>& velocities);

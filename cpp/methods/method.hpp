@@ -54,7 +54,8 @@ class SphMethod {
   virtual void particles_added(Index first) { (void)first; }
   // The particles are the scene's fluid as its regions filled the lattice
   // (Solver::settle_fluid, after particles_added(0)): a method may settle them.
-  virtual void fluid_filled() {}
+  // Returns whether it moved any.
+  virtual bool fluid_filled() { return false; }
   // The inlets or outlets changed and no particle was added (Solver::
   // set_flows removed one, or moved a line): a method that keeps which
   // particles are in their buffers finds them again.

@@ -117,8 +117,8 @@ void DeltaWcsphMethod::particles_added(Index first) {
 // own lowest particle; a particle whose move would meet a wall stays and
 // starts one). Across gravity nothing moves; the densities stay: the weight
 // above a particle is its column's mass, however compressed.
-void DeltaWcsphMethod::fluid_filled() {
-  if (!hydrostatic()) return;
+bool DeltaWcsphMethod::fluid_filled() {
+  if (!hydrostatic()) return false;
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   const Vec2 up = -P_.gravity.normalized();
@@ -148,6 +148,7 @@ void DeltaWcsphMethod::fluid_filled() {
     drop[i] = shift;
   }
   for (Index i = 0; i < n; ++i) ps.x[i] -= drop[i] * up;
+  return n > 0;
 }
 
 void DeltaWcsphMethod::make_shift_fields() {

@@ -11,8 +11,8 @@
 // across periodic seams or with shifting, over full neighbour lists.
 #pragma once
 
-#include <memory>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "context.hpp"
@@ -35,7 +35,7 @@ class DeltaWcsphMethod final : public SphMethod {
   void step(Real dt, Real dt_cap) override { step_fn_(*this, dt, dt_cap); }
   void evaluate() override { eval_fn_(*this); }
   void particles_added(Index first) override;
-  void fluid_filled() override;
+  bool fluid_filled() override;
   // "auto" shifting's decision, whether the next drift shifts, and the last
   // drift's shift rate (W27), as numbers.
   std::vector<Real> carried() const override;
