@@ -22,7 +22,8 @@ import time
 
 PLAN = [("taylor_green", (25, 50)), ("poiseuille", (20, 40)), ("hydrostatic", (20, 40)),
         ("dam_break", (20, 40)), ("cavity", (25, 50))]
-METRICS = ("decay rate error", "max |v| / sqrt(gH)", "99.9 % of |rho/rho0 - 1| within",
+METRICS = ("decay rate error", "max |v| / sqrt(gH)", "99.9 % of |rho/rho0 - 1| within, collapse",
+           "99.9 % of |rho/rho0 - 1| within, impact",
            "mean |dZ|, best shift", "splashed out of the basin")
 
 
