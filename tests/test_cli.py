@@ -28,6 +28,22 @@ def test_run_every_scene_briefly(path, capsys):
     assert "removed particles   0" in out
 
 
+@pytest.mark.parametrize("solver, why", [
+    ({"method": "seed"}, "the summed density falls short"),
+    ({"method": "wcsph", "density": "summation"}, "the summed density falls short"),
+    ({"method": "wcsph"}, "the carried density stretches"),  # W26b, the default
+    ({"method": "wcsph", "free_surface": "density_floor"}, "of the same states)"),
+])
+def test_run_says_why_a_density_error_can_be_large(tmp_path, capsys, solver, why):
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps({**BASE_SCENE, "solver": {**BASE_SCENE.get("solver", {}),
+                                                          **solver}}))
+    assert main(["run", str(scene), "--duration", "0.005", "--quiet"]) == 0
+    line = next(t for t in capsys.readouterr().out.splitlines() if "max density error" in t)
+    assert why in line
+    assert ("falls short" in line) + ("stretches" in line) == ("states)" not in why)
+
+
 def test_run_writes_frames(tmp_path, capsys):
     scene = tmp_path / "s.json"
     scene.write_text(json.dumps(BASE_SCENE))

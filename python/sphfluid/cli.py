@@ -814,8 +814,12 @@ def _print_summary(run: _Run) -> None:
               f"{b['sunk']:,} sunk - {b['lost']:,} lost = {b['now']:,} now")
     print(f"max compression     {run.max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
           "0 if none is above rho0)")
-    why = ("" if sim.scene.density == "continuity" and sim.scene.method == "wcsph"
-           else "; at a free surface the summed density falls short")
+    if sim.scene.density != "continuity" or sim.scene.method != "wcsph":
+        why = "; at a free surface the summed density falls short"
+    elif sim.scene.free_surface == "pressure_floor":  # W26b
+        why = "; in spray and at free surfaces the carried density stretches, at no tension"
+    else:
+        why = ""
     print(f"max density error   {run.max_err:.4f} (largest |rho/rho0 - 1| of the same "
           f"states{why})")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
