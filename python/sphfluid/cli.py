@@ -783,6 +783,15 @@ class _Run:
             print(f"could not save the last good state: {e}", file=sys.stderr)
 
 
+def _density_note(scene) -> str:
+    """Why the run summary's density error can be large where nothing is wrong."""
+    if scene.density != "continuity" or scene.method != "wcsph":
+        return "; at a free surface the summed density falls short"
+    if scene.free_surface == "pressure_floor":  # W26b
+        return "; in spray and at free surfaces the carried density stretches, at no tension"
+    return ""
+
+
 def _print_summary(run: _Run) -> None:
     sim, wall = run.sim, run.wall
     done = sim.step_count - run.first_step
@@ -814,14 +823,8 @@ def _print_summary(run: _Run) -> None:
               f"{b['sunk']:,} sunk - {b['lost']:,} lost = {b['now']:,} now")
     print(f"max compression     {run.max_comp:.4f} (largest rho/rho0 - 1 of the sampled states, "
           "0 if none is above rho0)")
-    if sim.scene.density != "continuity" or sim.scene.method != "wcsph":
-        why = "; at a free surface the summed density falls short"
-    elif sim.scene.free_surface == "pressure_floor":  # W26b
-        why = "; in spray and at free surfaces the carried density stretches, at no tension"
-    else:
-        why = ""
     print(f"max density error   {run.max_err:.4f} (largest |rho/rho0 - 1| of the same "
-          f"states{why})")
+          f"states{_density_note(sim.scene)})")
     print(f"max speed           {st['max_speed']:.3f} m/s at the end")
     if sim.retried_steps:
         print(f"retried steps       {sim.retried_steps} (with halved time steps)")
