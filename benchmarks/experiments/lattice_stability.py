@@ -11,7 +11,13 @@ volume (a shear), so nothing else restores it. `squeeze` compresses the rows
 along y by that fraction (a hydrostatic column's, W23b).
 
     python benchmarks/experiments/lattice_stability.py analysis [2,2.5,2.75,3] [SQUEEZE]
+    python benchmarks/experiments/lattice_stability.py elastic [2.75,3,4]
     python benchmarks/experiments/lattice_stability.py run 2.75,3 [N] [PRESSURE]
+
+`elastic` takes D(k) at long waves, sum_j (k.r_j)^2 / 2 Hess W(r_j) / |k|^2:
+its transverse part, over its longitudinal one, is a shear modulus the
+pressure lends the lattice (a fluid has none), for waves along x and along a
+diagonal.
 
 `run` puts a periodic box of N x N particles (default 40) at the given
 background pressure (default 20 kPa; c0 = 46.5 m/s, no gravity), displaced by
@@ -62,6 +68,24 @@ def analysis(ratios: list[float], squeeze: float) -> None:
         print(f"| {k:g} | {value:+.5f} | ({kx:.2f}, {ky:.2f}) |")
 
 
+def elastic(ratios: list[float]) -> None:
+    print("| h / dx | transverse / longitudinal, along x | along a diagonal |")
+    print("|---:|---:|---:|")
+    for k in ratios:
+        reach = int(np.ceil(k)) + 1
+        i, j = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
+        keep = (i != 0) | (j != 0)
+        x, y = i[keep].astype(float), j[keep].astype(float)
+        hxx, hxy, hyy = wendland_hessian(x, y, k)
+        ratios_k = []
+        for e in (np.array([1.0, 0.0]), np.array([1.0, 1.0]) / np.sqrt(2)):
+            c = 0.5 * (e[0] * x + e[1] * y) ** 2
+            m = np.array([[c @ hxx, c @ hxy], [c @ hxy, c @ hyy]])
+            t = np.array([-e[1], e[0]])
+            ratios_k.append(float(t @ m @ t) / float(e @ m @ e))
+        print(f"| {k:g} | {ratios_k[0]:+.4f} | {ratios_k[1]:+.4f} |")
+
+
 def run(ratios: list[float], n: int, pressure: float) -> None:
     from sphfluid import Simulation
 
@@ -92,8 +116,10 @@ if __name__ == "__main__":
     ks = [float(v) for v in (sys.argv[2] if len(sys.argv) > 2 else "2,2.5,2.75,3").split(",")]
     if mode == "analysis":
         analysis(ks, float(sys.argv[3]) if len(sys.argv) > 3 else 0.0)
+    elif mode == "elastic":
+        elastic(ks)
     elif mode == "run":
         run(ks, int(sys.argv[3]) if len(sys.argv) > 3 else 40,
             float(sys.argv[4]) if len(sys.argv) > 4 else 20_000.0)
     else:
-        sys.exit(f"unknown mode {mode!r}: analysis or run")
+        sys.exit(f"unknown mode {mode!r}: analysis, elastic or run")
