@@ -31,8 +31,8 @@ def test_run_every_scene_briefly(path, capsys):
 @pytest.mark.parametrize("solver, why", [
     ({"method": "seed"}, "the summed density falls short"),
     ({"method": "wcsph", "density": "summation"}, "the summed density falls short"),
-    ({"method": "wcsph", "free_surface": "pressure_floor"}, "the carried density stretches"),
-    ({"method": "wcsph"}, "of the same states)"),  # W26, the default
+    ({"method": "wcsph"}, "the carried density stretches"),  # W26b, the default
+    ({"method": "wcsph", "free_surface": "density_floor"}, "of the same states)"),
 ])
 def test_run_says_why_a_density_error_can_be_large(tmp_path, capsys, solver, why):
     scene = tmp_path / "s.json"

@@ -76,9 +76,15 @@ inline Real surface_floor(Real rho, Real sum, Real rho0) {
   return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;
 }
 // W26b: or the density stays as carried, and there the pressure is not below
-// the background pressure p_b (no tension at a free surface or in spray).
-inline Real surface_pressure(Real p, Real sum, Real pb) {
-  return sum < kSurfaceSum && p < pb ? pb : p;
+// the background pressure p_b (no tension at a free surface or in spray); nor
+// where the carried density rho is below the summed one (rho0 sum) by more
+// than kStretched rho0: spray stretched in flight that has gathered again
+// (its particles are closer than their density says) holds no tension until
+// continuity and the diffusion have brought its density back.
+constexpr Real kStretched = 0.05;
+inline Real surface_pressure(Real p, Real sum, Real pb, Real rho, Real rho0) {
+  const bool open = sum < kSurfaceSum || rho < rho0 * (sum - kStretched);
+  return open && p < pb ? pb : p;
 }
 
 // W24: the normalisation of the viscous term (the Laplacian of Morris et al.
