@@ -3,9 +3,10 @@ the rim of a basin 0.6 m wide, for 1.5 s, then 1.5 s to settle. The emitted
 particles' area (count x spacing^2) over the basin's width is the level the
 inflow predicts; the level reached is the top of the fluid in the middle of
 the basin (its 98th percentile of y plus half a spacing). Each density of
-wcsph (docs/method-wcsph.md quotes the output).
+wcsph, or its continuity density with either free surface (W26b, the
+default, or W26; docs/method-wcsph.md quotes the output).
 
-    python benchmarks/experiments/basin_fill.py [continuity,summation] [spacing]
+    python benchmarks/experiments/basin_fill.py [pressure_floor,density_floor,summation] [spacing]
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ WIDTH = 0.6  # the basin's inside, m (x from 0.2 to 0.8)
 
 
 def scene(density: str, dx: float) -> dict:
-    solver = ({"free_surface": "pressure_floor"} if density == "pressure_floor"
+    solver = ({"free_surface": density} if density in ("pressure_floor", "density_floor")
               else {"density": density})
     return {
         "format": "sphfluid-scene/1",
