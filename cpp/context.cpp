@@ -97,9 +97,11 @@ void Context::trip(Real dt, const Vec2* x_new, const Vec2* v_new, const Real* rh
                              numbers);
     if (!params_.guard && rho_new[i] > 0) continue;
     if (!(rho_new[i] <= params_.guard_density_ratio * rho0 && rho_new[i] > 0))
-      throw InstabilityError(who + ": density " + fmt(rho_new[i]) + " kg/m^3 is over " +
-                             fmt(params_.guard_density_ratio) + " rho0 [check: density]" +
-                             numbers);
+      throw InstabilityError(who + ": density " + fmt(rho_new[i]) + " kg/m^3 is " +
+                             (rho_new[i] > 0 ? "over " + fmt(params_.guard_density_ratio) +
+                                                   " rho0"
+                                             : std::string("not positive")) +
+                             " [check: density]" + numbers);
     const Real speed = v_new[i].norm();
     if (!(speed <= params_.guard_speed_factor * c))
       throw InstabilityError(who + ": speed " + fmt(speed) + " m/s is over " +

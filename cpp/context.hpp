@@ -189,16 +189,17 @@ class Context {
 
  private:
   Real choose_dt(Real dt_cap);
-  // The guard's bounds on the density and on |v|^2 after an integration
-  // (infinite with the guard off: only non-finite values trip it then).
+  // The guard's bounds on the density (rho_min < rho <= rho_max) and on |v|^2
+  // after an integration (infinite with the guard off: only non-finite
+  // values trip it then).
   struct GuardLimits {
-    Real rho_max, v2_max;
+    Real rho_min, rho_max, v2_max;
   };
   GuardLimits guard_limits() const {
     const Real inf = std::numeric_limits<Real>::infinity();
     const Real v_max = params_.guard_speed_factor * sound_speed;
-    if (!params_.guard) return {inf, inf};
-    return {params_.guard_density_ratio * params_.rho0, v_max * v_max};
+    if (!params_.guard) return {-inf, inf, inf};
+    return {0, params_.guard_density_ratio * params_.rho0, v_max * v_max};
   }
   // The integration into x_new and v_new, eight particles at a time where the
   // lanes run (without periodic seams), else one at a time: whether any check

@@ -86,7 +86,7 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
   const Real* rho = ps.rho.data();
   [[maybe_unused]] const Real e = params_.restitution;
   const GuardLimits lim = guard_limits();
-  const Real rho_max = lim.rho_max, v2_max = lim.v2_max;
+  const Real rho_min = lim.rho_min, rho_max = lim.rho_max, v2_max = lim.v2_max;
   ghosts.stale();  // the wall clearances serve one integration only
   bool bad = false;
   Real sum = 0;
@@ -104,7 +104,7 @@ Context::Integration Context::integrate1(Real dt, Real kick, Vec2* x_new, Vec2* 
     if constexpr (Periodic) xi = box.wrap(xi);
     const Real v2 = vi.squaredNorm();
     // Written so that NaN fails every comparison and so trips.
-    bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max);
+    bad = bad || !(xi.allFinite() && v2 <= v2_max && rho[i] <= rho_max && rho[i] > rho_min);
     sum += v2;
     x_new[i] = xi;
     v_new[i] = vi;
@@ -134,6 +134,7 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
   const Real inf = std::numeric_limits<Real>::infinity();
   const GuardLimits lim = guard_limits();
   const Real rho_max = lim.rho_max, v2_max = lim.v2_max;
+  const D8 rho_floor = D8::splat(lim.rho_min);
   // The clearances found by this step's ghost search, for the positions x;
   // they serve this integration only.
   // (not past moving walls: one may come closer than a clearance in a step)
@@ -202,8 +203,9 @@ Context::Integration Context::integrate8(Real dt, Real kick, Vec2* x_new, Vec2* 
       }
       const D8 v2 = simd::fmadd(vx, vx, vy * vy);
       // Written so that NaN fails every comparison and so trips.
+      const D8 rho_i = D8::load(rho + i0, s.lanes);
       const Mask8 fine = simd::finite(to_x) & simd::finite(to_y) & simd::le(0xFF, v2, v2_cap) &
-                         simd::le(0xFF, D8::load(rho + i0, s.lanes), rho_cap);
+                         simd::le(0xFF, rho_i, rho_cap) & simd::gt(0xFF, rho_i, rho_floor);
       bad = bad || (fine & s.lanes) != s.lanes;
       sum += reduce_add(maskz(s.lanes, v2));
       vlx = mask_min(vlx, s.lanes, to_x, vlx);

@@ -36,6 +36,28 @@ def test_density_check():
     assert s.step_count == 0 and s.time == 0.0
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_density_check_trips_on_a_density_that_is_not_positive(threads):
+    """A carried density at or below zero (wcsph's continuity density can
+    overshoot) trips the guard even where no other check would: a uniform
+    block at rest has no rate, no force (W26b floors its pressure) and no
+    kinetic energy."""
+    d = {"format": "sphfluid-scene/1", "gravity": [0.0, 0.0],
+         "domain": {"min": [0.0, 0.0], "max": [1.0, 1.0]},
+         "fluid": {"rest_density": 1000.0, "viscosity": 0.001},
+         "resolution": {"spacing": 0.02},
+         "fluid_regions": [{"shape": "rectangle", "min": [0.3, 0.3], "max": [0.54, 0.54]}],
+         "solver": {"method": "wcsph", "time_step": "auto"}}
+    sim = sphfluid.Simulation(d, threads=threads)
+    snap = sim._solver.snapshot()
+    snap["fields"]["density"][:] = -100.0
+    sim._solver.restore(snap)
+    with pytest.raises(sphfluid.InstabilityError,
+                       match=r"density -100 kg/m\^3 is not positive \[check: density\]"):
+        sim.step(1)
+    assert sim.step_count == 0
+
+
 def test_speed_check():
     x = np.array([[0.0, 0.0], [5.0, 5.0]])
     v = np.array([[0.0, 0.0], [120.0, 0.0]])  # c = sqrt(k) = 10 m/s: limit 100 m/s
