@@ -2,6 +2,8 @@
 method, and no particle path ever crosses a fixed wall."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import sphfluid
@@ -82,9 +84,9 @@ def test_scene_is_stable_and_walls_hold_for_its_duration(path, adaptive):
 def test_water_spray_does_not_blow_up_whatever_the_output_stops(stop):
     """The terrain in water with wcsph's defaults, advanced in stops of `stop`
     seconds (each stop changes the steps taken, so the spray differs): W26b's
-    pressure floor let a clump of stretched spray pull itself apart at
-    t = 0.8 s in both (docs/method-wcsph.md, W26b); W26 runs them."""
-    from pathlib import Path
+    pressure floor without its second condition let a clump of stretched
+    spray that gathered again pull itself apart at t = 0.8 s in both
+    (docs/method-wcsph.md, W26b)."""
     path = Path(__file__).resolve().parents[1] / "scenes" / "water" / "terrain.json"
     sim = sphfluid.Simulation(sphfluid.load_scene(path), threads=1)
     for t in np.arange(stop, 1.0 + 1e-9, stop):
