@@ -140,12 +140,23 @@ def delta_rate(x, v, rho, *, h, m, rho0, c0, delta, gravity=(0.0, -9.81), period
     return rate
 
 
-def surface_floor(x, rho, *, h, m, rho0, period=None):
-    """W26: where the kernel sum (m / rho0) sum_j W_ij (j = i included) is
-    below 0.95, the density is at least rho0."""
+def kernel_sums(x, *, h, m, rho0, period=None):
+    """(m / rho0) sum_j W_ij, j = i included: W26's free-surface test."""
     r = separations(x, period)
-    sums = m / rho0 * wendland(np.sqrt((r**2).sum(-1)), h).sum(1)
+    return m / rho0 * wendland(np.sqrt((r**2).sum(-1)), h).sum(1)
+
+
+def surface_floor(x, rho, *, h, m, rho0, period=None):
+    """W26: where the kernel sum is below 0.95, the density is at least rho0."""
+    sums = kernel_sums(x, h=h, m=m, rho0=rho0, period=period)
     return np.where((sums < 0.95) & (rho < rho0), rho0, rho)
+
+
+def pressure_held(x, rho, *, h, m, rho0, period=None):
+    """W26b: where the pressure is floored at p_b: a kernel sum S below 0.95,
+    or a density below rho0 (S - 0.05) (stretched spray that gathered)."""
+    sums = kernel_sums(x, h=h, m=m, rho0=rho0, period=period)
+    return (sums < 0.95) | (rho < rho0 * (sums - 0.05))
 
 
 def shift(x, v, rho, *, h, m, rho0, k, dt, period=None):
@@ -207,17 +218,21 @@ def gradient_normalisation(h, dx, vol):
 
 
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
-                 period=None, background_pressure=0.0, lap_sums=None, spacing=None):
+                 period=None, background_pressure=0.0, lap_sums=None, spacing=None,
+                 held=None):
     """Pressure and acceleration of wcsph with the continuity density and no
     walls (W19 with W4-W5, W24, W29): Tait without the clamp, the sum form
     (p_i + p_j)/(rho_i rho_j) of the pressure term divided by the lattice's
     gradient normalisation S (spacing sqrt(m / rho0) by default), the viscous term
     2 m eta/(rho_i rho_j) F_ij v_ij (c_i + c_j)/2 with c = -2 / lap_sums
-    (laplacian_sums of these positions and densities by default)."""
+    (laplacian_sums of these positions and densities by default). `held`:
+    where the pressure is not below p_b (W26b; pressure_held)."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     B = rho0 * c0**2 / 7.0
     p = B * ((rho / rho0) ** 7 - 1.0) + background_pressure
+    if held is not None:
+        p = np.where(held & (p < background_pressure), background_pressure, p)
     gw = wendland_grad(r, h)
     vij = v[:, None, :] - v[None, :, :]
     hs = 0.5 * h

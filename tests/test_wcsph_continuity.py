@@ -12,13 +12,14 @@ import sphfluid
 from sphfluid import _core
 from conftest import ROOT
 from sphfluid.scene import SceneError
-from reference import (delta_forces, delta_rate, laplacian_sums, shift, shift_rate,
-                       surface_floor)
+from reference import (delta_forces, delta_rate, kernel_sums, laplacian_sums, pressure_held,
+                       shift, shift_rate, surface_floor)
 
 H, M, RHO0, C0 = 0.1, 0.6, 1000.0, 20.0
 
 
-def solver(x, v, *, alpha, eta, delta, gravity, side, threads=1, shifting=0.0, periodic=True):
+def solver(x, v, *, alpha, eta, delta, gravity, side, threads=1, shifting=0.0, periodic=True,
+           surface_pressure=False):
     """Periodic: the box [0, side]^2 wraps (full lists); else a closed box a
     side larger all round, without walls (where the lanes run, the cell
     clusters unless something shifts)."""
@@ -26,6 +27,7 @@ def solver(x, v, *, alpha, eta, delta, gravity, side, threads=1, shifting=0.0, p
     p.method, p.h, p.mass, p.rho0, p.c0 = _core.Method.wcsph, H, M, RHO0, C0
     p.alpha, p.eta, p.gravity = alpha, eta, gravity
     p.continuity, p.delta, p.shifting = True, delta, shifting
+    p.surface_pressure = surface_pressure  # W26b, else W26
     p.domain_min, p.domain_max = ((0.0, 0.0), (side, side)) if periodic else \
         ((-side, -side), (2 * side, 2 * side))
     p.periodic = (periodic, periodic)
@@ -73,6 +75,44 @@ def test_one_step_equals_brute_force(alpha, eta, delta, periodic):
     np.testing.assert_allclose(s.accelerations[o], a1, rtol=1e-8, atol=1e-8 * np.abs(a1).max())
     if periodic:  # no clamp: both signs occur
         assert (p1 < 0).sum() > 20 and (p1 > 0).sum() > 20
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_one_step_with_the_pressure_floor_equals_brute_force(periodic):
+    """W26b: the density drifts as carried (no floor), and the pressure is not
+    below p_b where the kernel sum is below 0.95 or the density is more than
+    0.05 rho0 below the summed one; both act on the periodic cloud."""
+    rng = np.random.default_rng(7)
+    side, n = 0.6, 400
+    x = rng.uniform(0.0, side, (n, 2))
+    v = rng.normal(0.0, 0.5, (n, 2))
+    g = (0.3, -9.81)
+    s = solver(x, v, alpha=0.3, eta=0.5, delta=0.1, gravity=g, side=side, periodic=periodic,
+               surface_pressure=True)
+    o = np.argsort(s.ids)
+    rho = s.densities[o].copy()
+    period = (side, side) if periodic else None
+    kw = dict(h=H, m=M, rho0=RHO0, c0=C0, alpha=0.3, eta=0.5, gravity=g, period=period)
+    dt = 2e-4
+    _, a0 = delta_forces(x, v, rho, **kw,
+                         held=pressure_held(x, rho, h=H, m=M, rho0=RHO0, period=period))
+    s.step(dt)
+    vh = v + 0.5 * dt * a0
+    x1 = np.mod(x + dt * vh, side) if periodic else x + dt * vh
+    d = delta_rate(x1, vh, rho, h=H, m=M, rho0=RHO0, c0=C0, delta=0.1, gravity=g, period=period)
+    rho1 = rho + dt * d  # carried: no floor on the density
+    held = pressure_held(x1, rho1, h=H, m=M, rho0=RHO0, period=period)
+    sums = kernel_sums(x1, h=H, m=M, rho0=RHO0, period=period)
+    tension = rho1 < RHO0  # p < p_b = 0
+    assert (held & tension & (sums < 0.95)).sum() > 10  # at the cloud's gaps (164 / 13)
+    if periodic:  # (at rho0; in the closed box W23's start is denser)
+        assert (held & tension & (sums >= 0.95)).sum() > 5  # bunched beyond it (10)
+    p1, a1 = delta_forces(x1, vh, rho1, **kw, held=held,
+                          lap_sums=laplacian_sums(x1, rho, h=H, m=M, period=period))
+    o = np.argsort(s.ids)
+    np.testing.assert_allclose(s.densities[o], rho1, rtol=1e-12)
+    np.testing.assert_allclose(s.pressures[o], p1, rtol=1e-9, atol=1e-9 * np.abs(p1).max())
+    np.testing.assert_allclose(s.accelerations[o], a1, rtol=1e-8, atol=1e-8 * np.abs(a1).max())
 
 
 @pytest.mark.parametrize("periodic", [True, False])
