@@ -239,6 +239,17 @@ def test_a_tap_fills_a_basin_to_the_level_its_inflow_predicts(solver, tolerance)
 
 
 @pytest.mark.parametrize("free_surface", ["density_floor", "pressure_floor"])
+def test_an_emitter_with_shifting_fills_the_basin(free_surface):
+    """The particles an emitter adds were not moved by the last drift's shift,
+    so their share of the rate (W27) is zero: it was read from uninitialised
+    memory and the basin blew up at step 159 with any shifting coefficient."""
+    sim = sphfluid.Simulation(basin({"shifting": 1.0, "free_surface": free_surface}))
+    sim.advance_to(0.5)
+    assert sim.balance["in"] > 100 and sim.balance["lost"] == 0
+    assert np.isfinite(sim.densities).all() and (sim.densities > 500).all()
+
+
+@pytest.mark.parametrize("free_surface", ["density_floor", "pressure_floor"])
 def test_spray_keeps_its_stretched_density_under_w26b_and_no_tension(free_surface):
     """Two particles flying apart: the carried density falls as they separate.
     W26 floors it at rho0; W26b keeps it (886.7 kg/m^3 here) and floors the

@@ -84,6 +84,9 @@ void DeltaWcsphMethod::particles_added(Index first) {
   if (first == 0) {  // a new fluid (set_state): "auto" shifting decides again
     shape_known_ = confined_ = shift_ready_ = false;
   }
+  if (shift_) {  // new particles were not shifted by the last drift (W27's share)
+    for (Index i = first; i < n; ++i) (*shift_)[i] = Vec2::Zero();
+  }
   if (!hydrostatic()) {
     for (Index i = first; i < n; ++i) ps.rho[i] = P_.rho0;
     return;
