@@ -61,6 +61,14 @@ def same_on_one_and_two_threads(scene: dict, until: float):
     return two
 
 
+def set_carried_densities(sim, densities) -> None:
+    """Overwrite a wcsph simulation's carried densities (through the core's
+    snapshot, as a checkpoint restores them): states no scene starts from."""
+    snap = sim._solver.snapshot()
+    snap["fields"]["density"][:] = densities
+    sim._solver.restore(snap)
+
+
 @pytest.fixture
 def scene_dict():
     """A fresh copy of a small valid scene, to modify per test."""

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 import sphfluid
-from conftest import BASE_SCENE, ROOT
+from conftest import BASE_SCENE, ROOT, set_carried_densities
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sphfluid import _core
@@ -49,9 +49,7 @@ def test_density_check_trips_on_a_density_that_is_not_positive(threads):
          "fluid_regions": [{"shape": "rectangle", "min": [0.3, 0.3], "max": [0.54, 0.54]}],
          "solver": {"method": "wcsph", "time_step": "auto"}}
     sim = sphfluid.Simulation(d, threads=threads)
-    snap = sim._solver.snapshot()
-    snap["fields"]["density"][:] = -100.0
-    sim._solver.restore(snap)
+    set_carried_densities(sim, -100.0)
     with pytest.raises(sphfluid.InstabilityError,
                        match=r"density -100 kg/m\^3 is not positive \[check: density\]"):
         sim.step(1)

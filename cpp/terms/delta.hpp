@@ -78,9 +78,10 @@ inline Real surface_floor(Real rho, Real sum, Real rho0) {
 // W26b: or the density stays as carried, and there the pressure is not below
 // the background pressure p_b (no tension at a free surface or in spray); nor
 // where the carried density rho is below the summed one (rho0 sum) by more
-// than kStretched rho0: spray stretched in flight that has gathered again
-// (its particles are closer than their density says) holds no tension until
-// continuity and the diffusion have brought its density back.
+// than kStretched rho0: particles closer than their density says hold no
+// tension, spray stretched in flight that has gathered again (until
+// continuity and the diffusion have brought its density back) or, inside a
+// confined flow, particles bunched beyond their carried density.
 constexpr Real kStretched = 0.05;
 inline Real surface_pressure(Real p, Real sum, Real pb, Real rho, Real rho0) {
   const bool open = sum < kSurfaceSum || rho < rho0 * (sum - kStretched);
