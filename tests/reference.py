@@ -217,16 +217,43 @@ def gradient_normalisation(h, dx, vol):
     return float(-(vol * wendland_grad(y, h)[:, 1] * y[:, 1]).sum())
 
 
+def reconstruction_strain(x, v, rho, *, h, m, period=None):
+    """W30: each particle's strain (e_xx, e_yy, e_xy) for the artificial
+    viscosity's reconstruction: G = sum_j V_j (v_j - v_i) (x) grad W_ij / t with
+    t = -1/2 sum_j V_j F_ij r_ij^2 (none where t <= 1/2), its symmetric part E
+    times max(0, (|E|^2 - |Omega|^2) / (|E|^2 + |Omega|^2)), Omega the
+    antisymmetric part."""
+    r = separations(x, period)
+    r2 = (r**2).sum(-1)
+    gw = wendland_grad(r, h)
+    vol = m / rho
+    dv = v[None, :, :] - v[:, None, :]  # v_j - v_i
+    g = np.einsum("ij,ija,ijb->iab", np.broadcast_to(vol[None, :], r2.shape), dv, gw)
+    t = -0.5 * laplacian_sums(x, rho, h=h, m=m, period=period)
+    ok = t > 0.5
+    G = g / np.where(ok, t, 1.0)[:, None, None]
+    E = 0.5 * (G + G.transpose(0, 2, 1))
+    Om = 0.5 * (G - G.transpose(0, 2, 1))
+    e2, w2 = (E**2).sum((1, 2)), (Om**2).sum((1, 2))
+    share = np.where(e2 > w2, (e2 - w2) / np.where(e2 + w2 > 0, e2 + w2, 1.0), 0.0)
+    E = E * (share * ok)[:, None, None]
+    return E[:, 0, 0], E[:, 1, 1], E[:, 0, 1]
+
+
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
                  period=None, background_pressure=0.0, lap_sums=None, spacing=None,
-                 held=None):
+                 held=None, strain=None):
     """Pressure and acceleration of wcsph with the continuity density and no
     walls (W19 with W4-W5, W24, W29): Tait without the clamp, the sum form
     (p_i + p_j)/(rho_i rho_j) of the pressure term divided by the lattice's
     gradient normalisation S (spacing sqrt(m / rho0) by default), the viscous term
     2 m eta/(rho_i rho_j) F_ij v_ij (c_i + c_j)/2 with c = -2 / lap_sums
     (laplacian_sums of these positions and densities by default). `held`:
-    where the pressure is not below p_b (W26b; pressure_held)."""
+    where the pressure is not below p_b (W26b; pressure_held). `strain`: W30's
+    (reconstruction_strain's; None: no reconstruction), whose linear part of v_ij . r_ij,
+    the one of a_i = r_ij . E_i r_ij and a_j nearer zero where both are negative,
+    times q^2 (3 - 2q) with q = (r^2/dx^2 - 1/4) / (3/4) in [0, 1], clamped to
+    [v_ij . r_ij, 0], the artificial viscosity leaves out."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     B = rho0 * c0**2 / 7.0
@@ -240,6 +267,17 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     vr = (vij * r).sum(-1)
     rho_bar = 0.5 * (rho[:, None] + rho[None, :])
     alpha = continuity_alpha(alpha, eta, rho0, hs, c0)
+    if alpha > 0 and strain is not None:
+        exx, eyy, exy = strain
+        def linear(xx, yy, xy):
+            return xx[:, None] * r[..., 0] ** 2 + yy[:, None] * r[..., 1] ** 2 + \
+                2 * xy[:, None] * r[..., 0] * r[..., 1]
+        ai, aj = linear(exx, eyy, exy), linear(exx, eyy, exy).T
+        lin = np.where((ai < 0) & (aj < 0), np.maximum(ai, aj), 0.0)  # minmod, approaching
+        dx = np.sqrt(m / rho0) if spacing is None else spacing
+        q = np.clip((r2 / dx**2 - 0.25) / 0.75, 0.0, 1.0)  # closer than dx: in part
+        lin = lin * q**2 * (3 - 2 * q)
+        vr = vr - np.maximum(vr, np.minimum(lin, 0.0))  # only ever less viscosity
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
     dx = np.sqrt(m / rho0) if spacing is None else spacing
     S = gradient_normalisation(h, dx, m / rho0)

@@ -256,7 +256,8 @@ def test_scene_defaults_are_the_schemas():
     assert fields["periodic"] == tuple(default("domain", "periodic"))
     for key in ("viscosity", "surface_tension", "artificial_viscosity", "background_pressure"):
         assert fields[key] == default("fluid", key), key
-    for key in ("cfl", "on_instability", "pair_precision", "density_diffusion", "shifting"):
+    for key in ("cfl", "on_instability", "pair_precision", "density_diffusion", "shifting",
+                "free_surface", "viscosity_reconstruction"):
         assert fields[key] == default("solver", key), key
     assert fields["wall_restitution"] == default("solver", "wall_restitution")
     assert fields["method"] == default("solver", "method")

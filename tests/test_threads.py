@@ -41,7 +41,8 @@ def wcsph_with_tension(d):  # the surface energy's node sums (docs/method-wcsph.
 @pytest.mark.skipif(not sphfluid.has_openmp, reason="built without OpenMP")
 @pytest.mark.parametrize("name,tweak", [("dam_break.json", None), ("splash.json", with_tension),
                                         ("droplet.json", finer),
-                                        ("splash.json", wcsph_with_tension)])
+                                        ("splash.json", wcsph_with_tension),
+                                        ("water/wave_flume.json", None)])  # W30
 def test_one_and_two_threads_give_identical_states(name, tweak):
     one = run(name, 1, 300, tweak)
     two = run(name, 2, 300, tweak)

@@ -11,7 +11,9 @@ default) takes and gives, n cells across the depth, for each alpha given:
 
 VALIDATION.md, "Piston wave maker"; docs/method-wcsph.md, "Choices".
 
-    python benchmarks/experiments/artificial_viscosity.py N ALPHA [ALPHA ...]
+    python benchmarks/experiments/artificial_viscosity.py N ALPHA [ALPHA ...] [--reconstruct]
+
+--reconstruct runs both with `solver.viscosity_reconstruction` (W30).
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from sphfluid.validation import reference as ref
 from sphfluid.validation.cases import Hydrostatic, WaveMaker
 
 GAUGES = (0.3, 0.6, 1.0, 1.4, 1.8)  # m from the piston's mean position
+RECONSTRUCT = False  # W30
 TANK_TIMES = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0)  # s
 
 
@@ -34,6 +37,7 @@ def heights(n: int, alpha: float) -> tuple[list[float], float]:
     case = WaveMaker()
     scene = case.scene(n, "wcsph")
     scene["fluid"]["artificial_viscosity"] = alpha
+    scene["solver"]["viscosity_reconstruction"] = RECONSTRUCT
     sim = sphfluid.Simulation(scene)
     probes = Probes(surface=tuple(SurfaceProbe(f"g{k}", x) for k, x in enumerate(GAUGES)))
     t, eta, begin = [], [], time.perf_counter()
@@ -59,6 +63,7 @@ def tank_speeds(n: int, alpha: float) -> list[float]:
     case = Hydrostatic()
     scene = case.scene(n, "wcsph")
     scene["fluid"]["artificial_viscosity"] = alpha
+    scene["solver"]["viscosity_reconstruction"] = RECONSTRUCT
     sim = sphfluid.Simulation(scene)
     out = []
     for t in TANK_TIMES:
@@ -68,8 +73,12 @@ def tank_speeds(n: int, alpha: float) -> list[float]:
 
 
 def main() -> None:
-    n = int(sys.argv[1])
-    alphas = [float(a) for a in sys.argv[2:]]
+    global RECONSTRUCT
+    args = sys.argv[1:]
+    RECONSTRUCT = "--reconstruct" in args
+    args = [a for a in args if a != "--reconstruct"]
+    n = int(args[0])
+    alphas = [float(a) for a in args[1:]]
     print(f"n = {n}, the waves: H / H_theory at " + ", ".join(f"{x:g}" for x in GAUGES) + " m")
     for alpha in alphas:
         ratios, wall = heights(n, alpha)

@@ -44,6 +44,9 @@ void bind_params(py::module_& m) {
                      "wcsph with continuity: at a free surface floor the pressure at p_b "
                      "and keep the carried density (W26b), instead of flooring the density "
                      "at rho0 (W26)")
+      .def_readwrite("reconstruct_viscosity", &SimParams::reconstruct_viscosity,
+                     "wcsph with continuity: the artificial viscosity on the velocity "
+                     "difference left after a limited linear reconstruction (W30)")
       .def_readwrite("density_tolerance", &SimParams::density_tolerance,
                      "dfsph: the constant-density solve's tolerance, mean density error / rho0")
       .def_readwrite("divergence_tolerance", &SimParams::divergence_tolerance,

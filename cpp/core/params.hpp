@@ -103,6 +103,10 @@ struct SimParams {
   // At a free surface (W26): false floors the density at rho0; true keeps the
   // carried density and floors the pressure at p_b instead (W26b).
   bool surface_pressure = false;
+  // The artificial viscosity on the velocity difference left after each
+  // side's limited linear reconstruction to the pair's midpoint, scaled by how
+  // much of its velocity gradient is strain rather than rotation (W30).
+  bool reconstruct_viscosity = false;
 
   // dfsph (docs/method-dfsph.md): the solves' tolerances, the mean density
   // error over rho0 of the constant-density solve and the mean density change

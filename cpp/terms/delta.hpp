@@ -253,4 +253,74 @@ inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Ve
   });
 }
 
+// W30: Monaghan's artificial viscosity (W5) on what is left of v_ij . r_ij
+// after each side's linear reconstruction to the pair's midpoint, the
+// limited reconstruction of Christensen (1990) that Frontiere, Raskin & Owen
+// (2017) and Rosswog (2020) bring to SPH's artificial viscosity: a smooth
+// flow keeps its energy (a wave is not damped by the scheme's viscosity, of
+// alpha hs c0 / 8), while motion on the particles' scale (noise, an impact)
+// meets the whole of it. A particle's velocity gradient from its fluid pairs,
+//   G_i = sum_j V_j (v_j - v_i) (x) grad W_ij / t_i,
+//   t_i = -1/2 sum_j V_j F_ij r_ij^2 (W24's fluid sum: 1 inside a fluid on the
+//   lattice, about 3/4 at a free surface),
+// a scalar normalisation in place of the matrix one (on the piston's waves
+// within 1 % of it). Its strain E_i (the symmetric part) counts by the share
+//   s_i = max(0, (|E|^2 - |Omega|^2) / (|E|^2 + |Omega|^2))
+// (Omega the antisymmetric part): 1 in an irrotational flow, 0 in a simple
+// shear, so that the square lattice's shear mode under pressure (the tank at
+// rest's; docs, "The square lattice under pressure") stays damped. Each side
+// predicts the linear part a_i = r_ij . s_i E_i r_ij of v_ij . r_ij, and W5
+// acts on what is left (linear_vr, below).
+// A pair's share of i's sums (j's is the same with F V_i): with k = F V_j,
+// (g_xx, g_xy) -= k v_ij,x (dx, dy), (g_yx, g_yy) -= k v_ij,y (dx, dy).
+template <class L>
+SPHFLUID_INLINE void velocity_gradient_share(L k, L dx, L dy, L vijx, L vijy, L& gxx, L& gxy,
+                                             L& gyx, L& gyy) {
+  const L kx = k * vijx, ky = k * vijy;
+  gxx = simd::fnmadd(kx, dx, gxx);
+  gxy = simd::fnmadd(kx, dy, gxy);
+  gyx = simd::fnmadd(ky, dx, gyx);
+  gyy = simd::fnmadd(ky, dy, gyy);
+}
+// The strain a particle reconstructs with, s_i E_i as (e_xx, e_yy, e_xy),
+// from its sums (g_xx, g_xy), (g_yx, g_yy) and W24's fluid sum: none where
+// that sum is under half a fluid's (spray: too few neighbours for a gradient).
+struct Strain {
+  Real xx, yy, xy;
+};
+inline Strain reconstruction_strain(const Vec2& gx, const Vec2& gy, Real fluid_sum) {
+  const Real t = Real(-0.5) * fluid_sum;
+  if (!(t > Real(0.5))) return {0, 0, 0};
+  const Real xx = gx.x() / t, yy = gy.y() / t;
+  const Real xy = Real(0.5) * (gx.y() + gy.x()) / t, w = Real(0.5) * (gy.x() - gx.y()) / t;
+  const Real e2 = xx * xx + yy * yy + 2 * xy * xy, w2 = 2 * w * w;
+  const Real share = e2 > w2 ? (e2 - w2) / (e2 + w2) : Real(0);
+  return {share * xx, share * yy, share * xy};
+}
+// The linear part of an approaching pair's v_ij . r_ij = vr < 0 that the
+// viscosity leaves out (r_ij = (dx, dy), r2 = r^2): each side predicts
+// a_i = r_ij . E_i r_ij, and the pair takes the one nearer zero where both
+// are negative (minmod), else none; closer than the spacing only in part,
+// times q^2 (3 - 2 q), q = (r^2 / dx^2 - 1/4) / (3/4) in [0, 1] (inv_dx2 =
+// 1 / dx^2; none within half a spacing), as Rosswog (2020) keeps the whole
+// viscosity between particles that come too close; and never beyond vr, so
+// that the reconstruction only takes dissipation away, never adds or turns
+// it (a pair parting more slowly than its strain predicts is not pushed
+// apart). A parting pair (vr >= 0) gets vr: all of it is left out, as W5
+// leaves it.
+template <class L>
+SPHFLUID_INLINE L linear_vr(simd::Mask<L> in, L vr, L exx_i, L eyy_i, L exy_i, L exx_j, L eyy_j,
+                            L exy_j, L dx, L dy, L r2, L inv_dx2) {
+  const L zero = simd::zero<L>();
+  const L xx = dx * dx, yy = dy * dy, xy2 = simd::splat<L>(Real(2)) * dx * dy;
+  const L ai = simd::fmadd(exx_i, xx, simd::fmadd(eyy_i, yy, exy_i * xy2));
+  const L aj = simd::fmadd(exx_j, xx, simd::fmadd(eyy_j, yy, exy_j * xy2));
+  const auto both = simd::lt(simd::lt(in, ai, zero), aj, zero);
+  const L one = simd::splat<L>(Real(1));
+  const L q = simd::max(zero, simd::min(one, simd::fmadd(r2, inv_dx2, simd::splat<L>(Real(-0.25))) *
+                                                 simd::splat<L>(Real(4) / Real(3))));
+  const L close = q * q * simd::fnmadd(simd::splat<L>(Real(2)), q, simd::splat<L>(Real(3)));
+  return simd::max(vr, simd::maskz(both, simd::max(ai, aj) * close));
+}
+
 }  // namespace sphfluid::delta

@@ -77,17 +77,21 @@ SPHFLUID_INLINE L morris(L m_eta2, L ir_i, L ir_j, L r_gw, L inv_r2e) {
 // With Normalised (the continuity density's W24), the viscous term is instead
 //   2 m eta / (rho_i rho_j) F_ij v_ij * lap_ij,
 // (r_ij . grad W) / r^2 = F_ij exactly, with no eps, and lap_ij the pair's
-// normalisation (terms/delta.hpp).
+// normalisation (terms/delta.hpp). W30 passes the linear part of v_ij . r_ij
+// (terms/delta.hpp, linear_vr), which Pi_ij then leaves out.
 template <bool Viscosity, bool Normalised = false>
 struct PairForce {
   template <class L>
   static SPHFLUID_INLINE void f(simd::Mask<L> in, const Wendland& W, const PairConstants<L>& c,
                                 L rho_sum, L por2_sum, L ir_i, L ir_j, L dx, L dy, L r2, L vijx,
-                                L vijy, L& fx, L& fy, L lap_ij = simd::zero<L>()) {
+                                L vijy, L& fx, L& fy, L lap_ij = simd::zero<L>(),
+                                L vr_linear = simd::zero<L>()) {
     const L zero = simd::zero<L>();
     const L s = W.gradient_factor(simd::sqrt(r2));
     const L gwx = s * dx, gwy = s * dy;
-    const L vr = simd::fmadd(vijx, dx, vijy * dy);
+    // v_ij . r_ij, less its linear part where W30 reconstructs (the pressure
+    // and the physical viscosity take the whole v_ij)
+    const L vr = simd::fmadd(vijx, dx, vijy * dy) - vr_linear;
     // one division for both viscosities
     const L inv_r2e = simd::maskz_div(in, simd::splat<L>(1), r2 + c.eps2);
     L coef = por2_sum;  // p_i/rho_i^2 + p_j/rho_j^2

@@ -43,6 +43,7 @@ DEFAULT_DENSITY_DIFFUSION = _schema.default("solver", "density_diffusion")
 # in a flow with no free surface at its start (a confined one), none in others
 DEFAULT_SHIFTING = _schema.default("solver", "shifting")
 DEFAULT_FREE_SURFACE = _schema.default("solver", "free_surface")
+DEFAULT_VISCOSITY_RECONSTRUCTION = _schema.default("solver", "viscosity_reconstruction")
 AUTO_SHIFTING = 8.0
 DFSPH_KEYS = ("density_tolerance", "divergence_tolerance", "min_iterations", "max_iterations",
               "max_time_step")  # dfsph's solver keys (PressureSolve's fields)
@@ -199,11 +200,12 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "continuity"  # wcsph: "continuity" (W17-W29) or "summation" (W2)
+    density: str = "continuity"  # wcsph: "continuity" (W17-W30) or "summation" (W2)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     # wcsph with continuity, at a free surface: "density_floor" (W26), "pressure_floor" (W26b)
     free_surface: str = DEFAULT_FREE_SURFACE
+    viscosity_reconstruction: bool = DEFAULT_VISCOSITY_RECONSTRUCTION  # W30
     pressure_solve: PressureSolve = PressureSolve()  # dfsph's solves
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
@@ -296,6 +298,9 @@ class Scene:
         if self.method == "wcsph" and self.density == "continuity" and \
                 self.free_surface != DEFAULT_FREE_SURFACE:
             out["solver"]["free_surface"] = self.free_surface
+        if self.method == "wcsph" and self.density == "continuity" and \
+                self.viscosity_reconstruction != DEFAULT_VISCOSITY_RECONSTRUCTION:
+            out["solver"]["viscosity_reconstruction"] = self.viscosity_reconstruction
         if self.method == "dfsph":
             out["solver"].update(self.pressure_solve.to_dict())
             if self.time_step is not None:
@@ -394,6 +399,7 @@ class _Solver(NamedTuple):
     density_diffusion: float | None
     shifting: float | str | None
     free_surface: str | None
+    viscosity_reconstruction: bool | None
     pressure_solve: PressureSolve
 
 
@@ -496,6 +502,7 @@ class _Validator:
                       background_pressure=fluid.p_b, pair_precision=solver.pair_precision,
                       density=solver.density, density_diffusion=solver.density_diffusion,
                       shifting=solver.shifting, free_surface=solver.free_surface,
+                      viscosity_reconstruction=solver.viscosity_reconstruction,
                       pressure_solve=solver.pressure_solve,
                       probes=probes, emitters=tuple(emitters),
                       sinks=tuple(sinks), inlets=tuple(inlets), outlets=tuple(outlets),
@@ -531,7 +538,8 @@ class _Validator:
         if method != "wcsph":
             density = "summation"  # the seed's (SPEC.md)
         elif density is None and not ({"density", "density_diffusion", "shifting",
-                                       "free_surface"} & set(solver)):
+                                       "free_surface", "viscosity_reconstruction"}
+                                      & set(solver)):
             density = None  # default_density's, once the fluid is known
         else:
             density = density or "continuity"
@@ -549,6 +557,8 @@ class _Validator:
             shifting=shifting if isinstance(shifting, str) or shifting is None
             else float(shifting),
             free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE),
+            viscosity_reconstruction=self.value(solver, "viscosity_reconstruction", p,
+                                                DEFAULT_VISCOSITY_RECONSTRUCTION),
             pressure_solve=self.pressure_solve(solver))
 
     def pressure_solve(self, solver: dict) -> PressureSolve:

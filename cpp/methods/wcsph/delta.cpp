@@ -41,6 +41,7 @@ DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
   open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
   inv_s_ = 1 / delta::gradient_normalisation(kernel_, dx, P_.mass / P_.rho0);  // W29
   alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
+  reconstruct_ = P_.reconstruct_viscosity && alpha_ > 0;  // W30
   // The shift moves with its particle through the sort; with "auto" the field
   // waits for the fluid's shape (density()).
   if (P_.shifting > 0 && !P_.shift_confined) make_shift_fields();
@@ -195,7 +196,8 @@ Real DeltaWcsphMethod::elastic_energy() const {
 
 std::size_t DeltaWcsphMethod::bytes() const {
   return (lap_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
-         rate_lap_.capacity() * sizeof(Vec2) +
+         (rate_lap_.capacity() + grad_x_.capacity() + grad_y_.capacity()) * sizeof(Vec2) +
+         (strain_[0].capacity() + strain_[1].capacity() + strain_[2].capacity()) * sizeof(Real) +
          walls_.bytes() + surface_.bytes();
 }
 
@@ -259,14 +261,15 @@ void DeltaWcsphMethod::neighbours() {
 }
 
 // The rate pass's pair sums into rl (rate, W24's sum): by cell clusters or
-// over full lists; with Shift, W27's share of this step's shifts.
-template <unsigned F, bool Shift, class Constants>
+// over full lists; with Shift, W27's share of this step's shifts; with
+// Gradient, W30's velocity-gradient sums into grad_x_ and grad_y_.
+template <unsigned F, bool Shift, bool Gradient, class Constants>
 void DeltaWcsphMethod::rate_pass(Constants constants, Vec2* rl) {
   ParticleSet& ps = ctx_.ps;
   auto pairs = [&](auto lane) {
     using L = decltype(lane);
-    delta::RatePairs<L, Shift> p{ps.rho.data(), inv_rho_.data(), {ps.v.data()}, kernel_,
-                                 constants(lane)};
+    delta::RatePairs<L, Shift, Gradient> p{ps.rho.data(), inv_rho_.data(), {ps.v.data()},
+                                           kernel_, constants(lane)};
     if constexpr (Shift) {
       p.shift = {shift_->data()};
       p.per_dt = simd::splat<L>(shift_per_dt_);
@@ -277,29 +280,82 @@ void DeltaWcsphMethod::rate_pass(Constants constants, Vec2* rl) {
   if constexpr (by_cells(F)) {
     if (by_cells_) {
       const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
-      ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pairs(simd::D8{}), rl,
-                                    ctx_.team());
+      if constexpr (Gradient) {
+        ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pairs(simd::D8{}),
+                                      std::array<Vec2*, 3>{rl, grad_x_.data(), grad_y_.data()},
+                                      ctx_.team());
+      } else {
+        ctx_.search.cells().pair_sums(ctx_.search.grid(), frame, pairs(simd::D8{}), rl,
+                                      ctx_.team());
+      }
       return;
     }
   }
 #endif
-  using Pairs = delta::RatePairs<Real, Shift>;
+  using Pairs = delta::RatePairs<Real, Shift, Gradient>;
+  constexpr std::size_t N = Pairs::kOutputs;
   const Pairs rates = pairs(Real{});
+  struct Sums {
+    Real ix[N], iy[N];
+  };
   struct Visitor {
     const Pairs& rates;
-    Vec2* rl;
-    Vec2 begin(Index) const { return Vec2::Zero(); }
-    void pair(Vec2& s, Index i, Index j, const Vec2& r, Real r2, bool) const {
+    Vec2* out[3];
+    Sums begin(Index) const { return Sums{}; }
+    void pair(Sums& s, Index i, Index j, const Vec2& r, Real r2, bool) const {
       typename Pairs::Data d;
       rates.load(j, Span1{}, d);
-      Real dj = 0, lj = 0;
-      rates.add(i, d, true, r.x(), r.y(), r2, s.x(), s.y(), dj, lj);
+      Real jx[N] = {}, jy[N] = {};
+      if constexpr (Gradient) {
+        rates.add(i, d, true, r.x(), r.y(), r2, s.ix, s.iy, jx, jy);
+      } else {
+        rates.add(i, d, true, r.x(), r.y(), r2, s.ix[0], s.iy[0], jx[0], jy[0]);
+      }
     }
-    void end(Index i, const Vec2& s) const { rl[i] = s; }
-  } visitor{rates, rl};
+    void end(Index i, const Sums& s) const {
+      for (std::size_t o = 0; o < N; ++o) out[o][i] = Vec2(s.ix[o], s.iy[o]);
+    }
+  } visitor{rates, {rl, grad_x_.data(), grad_y_.data()}};
   const PeriodicBox& box = ctx_.box;
   pair_loops::gather(ctx_.search.lists(), ps.x.data(), ps.size(), ctx_.team(),
                      [&](const Vec2& p, const Vec2& q) { return box.delta(p, q); }, visitor);
+}
+
+// The rate pass (rate_pass) as this step needs it: with W27's share where the
+// last drift shifted; where W30 reconstructs, with its velocity-gradient sums,
+// from which each particle's strain follows (with W24's fluid sum, before the
+// walls' share is added).
+template <unsigned F, class Constants>
+void DeltaWcsphMethod::rates(Constants constants, Vec2* rl) {
+  const Index n = ctx_.size();
+  if (!reconstruct_) {
+    if (shift_per_dt_ > 0) {
+      rate_pass<F, true, false>(constants, rl);
+    } else {
+      rate_pass<F, false, false>(constants, rl);
+    }
+    return;
+  }
+  grad_x_.resize(n);
+  grad_y_.resize(n);
+  for (std::vector<Real>& e : strain_) e.resize(n);
+  if (shift_per_dt_ > 0) {
+    rate_pass<F, true, true>(constants, rl);
+  } else {
+    rate_pass<F, false, true>(constants, rl);
+  }
+  const Vec2* gx = grad_x_.data();
+  const Vec2* gy = grad_y_.data();
+  Real* exx = strain_[0].data();
+  Real* eyy = strain_[1].data();
+  Real* exy = strain_[2].data();
+#pragma omp parallel for schedule(static) num_threads(ctx_.team())
+  for (Index i = 0; i < n; ++i) {
+    const delta::Strain st = delta::reconstruction_strain(gx[i], gy[i], rl[i].y());
+    exx[i] = st.xx;
+    eyy[i] = st.yy;
+    exy[i] = st.xy;
+  }
 }
 
 // The rate of each particle's density (W17-W18, the walls' W20) from the
@@ -326,12 +382,7 @@ void DeltaWcsphMethod::density(Real dt) {
 #pragma omp parallel for schedule(static) num_threads(ctx_.team())
     for (Index i = 0; i < n; ++i) ir[i] = 1 / rho[i];
   }
-  // W27 where this step's drift shifted
-  if (shift_per_dt_ > 0) {
-    rate_pass<F, true>(constants, rl);
-  } else {
-    rate_pass<F, false>(constants, rl);
-  }
+  rates<F>(constants, rl);
   const Real* rho = ps.rho.data();
   const Vec2* v = ps.v.data();
   if constexpr ((F & kWalls) != 0) {
@@ -390,20 +441,17 @@ void DeltaWcsphMethod::state() {
   ctx_.timer.mark(kDensity);
 }
 
-template <unsigned F>
-delta::ForcePairs<Real, (F & kViscosity) != 0> DeltaWcsphMethod::force_pairs() const {
-  return force_pairs<F, Real>();
-}
-template <unsigned F, class L>
-delta::ForcePairs<L, (F & kViscosity) != 0> DeltaWcsphMethod::force_pairs() const {
+template <unsigned F, class L, bool R>
+delta::ForcePairs<L, (F & kViscosity) != 0, R> DeltaWcsphMethod::force_pairs() const {
   const ParticleSet& ps = ctx_.ps;
   return {ps.rho.data(), ps.p.data(), inv_rho_.data(), lap_.data(), {ps.v.data()}, kernel_,
-          constants<L>(), simd::splat<L>(inv_s_)};
+          constants<L>(), simd::splat<L>(inv_s_), strain_[0].data(), strain_[1].data(),
+          strain_[2].data(), simd::splat<L>(1 / (spacing() * spacing()))};
 }
 
-// The force pass by cell clusters: with shifting, its three sums at once.
-// Returns false where the clusters do not run.
-template <unsigned F>
+// The force pass by cell clusters: with shifting, its three sums at once;
+// with R, W30's reconstruction. Returns false where the clusters do not run.
+template <unsigned F, bool R>
 bool DeltaWcsphMethod::forces_by_cells() {
 #if SPHFLUID_AVX512
   if constexpr (by_cells(F)) {
@@ -416,12 +464,12 @@ bool DeltaWcsphMethod::forces_by_cells() {
     const CellPairs& cells = ctx_.search.cells();
     Vec2* a = ps.a.data();
     if (shifting) {
-      const delta::ShiftForcePairs<simd::D8, kVisc> pair{force_pairs<F, simd::D8>(),
-                                                         simd::splat<simd::D8>(inv_wdx_)};
+      const delta::ShiftForcePairs<simd::D8, kVisc, R> pair{force_pairs<F, simd::D8, R>(),
+                                                            simd::splat<simd::D8>(inv_wdx_)};
       cells.pair_sums(ctx_.search.grid(), frame, pair,
                       std::array<Vec2*, 3>{a, shift_sum_->data(), colour_->data()}, ctx_.team());
     } else {
-      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8>(), a, ctx_.team());
+      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8, R>(), a, ctx_.team());
     }
     if constexpr ((F & kWalls) != 0) {
       ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
@@ -443,18 +491,25 @@ bool DeltaWcsphMethod::forces_by_cells() {
 // particle's walls right after its pairs.
 template <unsigned F>
 void DeltaWcsphMethod::forces() {
+  shift_ready_ = shifts_next();  // whether the next drift shifts (shift_for)
+  if (reconstruct_) {
+    forces_with<F, true>();
+  } else {
+    forces_with<F, false>();
+  }
+  ctx_.timer.mark(kForces);
+}
+
+template <unsigned F, bool R>
+void DeltaWcsphMethod::forces_with() {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
-  const bool shifting = shifts_next();  // the shifting sums only where they are used
-  shift_ready_ = shifting;  // whether the next drift shifts (shift_for)
-  if (forces_by_cells<F>()) {
-    ctx_.timer.mark(kForces);
-    return;
-  }
+  const bool shifting = shift_ready_;  // the shifting sums only where they are used
+  if (forces_by_cells<F, R>()) return;
   struct Sums {
     Vec2 f, s, c;
   };
-  const auto force = force_pairs<F>();
+  const auto force = force_pairs<F, Real, R>();
   const Real* ir = inv_rho_.data();
   const Real m = P_.mass, inv_wdx = inv_wdx_;
   const Wendland& W = kernel_;
@@ -493,7 +548,6 @@ void DeltaWcsphMethod::forces() {
   const PeriodicBox& box = ctx_.box;
   pair_loops::gather(ctx_.search.lists(), ps.x.data(), n, ctx_.team(),
                      [&](const Vec2& a, const Vec2& b) { return box.delta(a, b); }, visitor);
-  ctx_.timer.mark(kForces);
 }
 
 

@@ -67,12 +67,15 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void evaluate_kick(Real dt, Real half);
   template <unsigned F> void neighbours();
   template <unsigned F> void density(Real dt);
-  template <unsigned F, bool Shift, class Constants> void rate_pass(Constants constants, Vec2* rl);
+  template <unsigned F, bool Shift, bool Gradient, class Constants>
+  void rate_pass(Constants constants, Vec2* rl);
+  template <unsigned F, class Constants> void rates(Constants constants, Vec2* rl);
   void state();
   template <unsigned F> void forces();
-  template <unsigned F> bool forces_by_cells();
-  template <unsigned F> delta::ForcePairs<Real, (F & kViscosity) != 0> force_pairs() const;
-  template <unsigned F, class L> delta::ForcePairs<L, (F & kViscosity) != 0> force_pairs() const;
+  template <unsigned F, bool R> void forces_with();
+  template <unsigned F, bool R> bool forces_by_cells();
+  template <unsigned F, class L, bool R>
+  delta::ForcePairs<L, (F & kViscosity) != 0, R> force_pairs() const;
   template <unsigned F> void add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const;
   // W4-W6's constants with W28's alpha.
   template <class L>
@@ -115,6 +118,12 @@ class DeltaWcsphMethod final : public SphMethod {
   std::vector<Vec2> rate_lap_;    // (d rho / dt, W24's sum)
   std::vector<Real> lap_;         // the viscous term's normalisation c_i (W24)
   std::vector<Real> inv_rho_;     // 1 / rho
+  // W30 (where the artificial viscosity acts, alpha' > 0): the rate pass's
+  // velocity-gradient sums (g_xx, g_xy), (g_yx, g_yy), then each particle's
+  // strain e_xx, e_yy, e_xy
+  bool reconstruct_ = false;
+  std::vector<Vec2> grad_x_, grad_y_;
+  std::vector<Real> strain_[3];
   // With shifting only (make_shift_fields): the next drift's shift, m; W21's
   // sum of each particle (zero within h of a wall) and the sum of V_j grad
   // W_ij, the free surface's normal, from which the next step makes it.

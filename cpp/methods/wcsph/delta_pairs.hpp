@@ -15,8 +15,11 @@ namespace sphfluid::delta {
 
 // i's (rate, Laplacian sum) into (di, li), j's into (dj, lj); ir = 1 / rho.
 // With Shift, also W27's share from the step's shifts (shift, times per_dt).
-template <class L, bool Shift = false>
+// With Gradient, outputs 1 and 2 take W30's velocity-gradient sums
+// (g_xx, g_xy) and (g_yx, g_yy).
+template <class L, bool Shift = false, bool Gradient = false>
 struct RatePairs {
+  static constexpr std::size_t kOutputs = Gradient ? 3 : 1;
   const Real* rho;
   const Real* ir;
   InterleavedVelocity v;
@@ -36,10 +39,29 @@ struct RatePairs {
   }
   SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& di,
                            L& li, L& dj, L& lj) const {
+    L F, vol_i, vol_j, vijx, vijy;
+    add(i, d, in, dx, dy, r2, di, li, dj, lj, F, vol_i, vol_j, vijx, vijy);
+  }
+  SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2,
+                           L (&ix)[kOutputs], L (&iy)[kOutputs], L (&jx)[kOutputs],
+                           L (&jy)[kOutputs]) const {
+    static_assert(Gradient);
+    L F, vol_i, vol_j, vijx, vijy;
+    add(i, d, in, dx, dy, r2, ix[0], iy[0], jx[0], jy[0], F, vol_i, vol_j, vijx, vijy);
+    velocity_gradient_share(F * vol_j, dx, dy, vijx, vijy, ix[1], iy[1], ix[2], iy[2]);
+    velocity_gradient_share(F * vol_i, dx, dy, vijx, vijy, jx[1], jy[1], jx[2], jy[2]);
+  }
+
+ private:
+  SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& di,
+                           L& li, L& dj, L& lj, L& F, L& vol_i, L& vol_j, L& vijx,
+                           L& vijy) const {
     const L rho_i = simd::splat<L>(rho[i]);
-    const L F = W.gradient_factor(simd::sqrt(r2));
-    const L vol_i = simd::maskz(in, c.m * simd::splat<L>(ir[i])), vol_j = simd::maskz(in, d.vol);
-    const L vijx = simd::splat<L>(v.x(i)) - d.vx, vijy = simd::splat<L>(v.y(i)) - d.vy;
+    F = W.gradient_factor(simd::sqrt(r2));
+    vol_i = simd::maskz(in, c.m * simd::splat<L>(ir[i]));
+    vol_j = simd::maskz(in, d.vol);
+    vijx = simd::splat<L>(v.x(i)) - d.vx;
+    vijy = simd::splat<L>(v.y(i)) - d.vy;
     L ri, rj;
     rate<L>(in, F, c, rho_i, d.rho, vol_i, vol_j, dx, dy, vijx, vijy, ri, rj);
     if constexpr (Shift) {
@@ -58,8 +80,9 @@ struct RatePairs {
 
 // The pair force over rho, p, 1 / rho (ir) and the normalisation c (lap),
 // the pressure's part divided by the lattice's S (times inv_s, W29):
-// i gets f, j gets -f.
-template <class L, bool Viscosity>
+// i gets f, j gets -f. With Reconstruct, the artificial viscosity leaves out
+// the linear part of v_ij . r_ij from the strains e_xx, e_yy, e_xy (W30).
+template <class L, bool Viscosity, bool Reconstruct = false>
 struct ForcePairs {
   const Real* rho;
   const Real* p;
@@ -69,8 +92,13 @@ struct ForcePairs {
   Wendland W;
   wcsph::PairConstants<L> c;
   L inv_s;
+  const Real* exx = nullptr;  // W30's strains
+  const Real* eyy = nullptr;
+  const Real* exy = nullptr;
+  L inv_dx2 = simd::zero<L>();  // 1 / spacing^2
   struct Data {
     L rho, p, ir, lap, vx, vy;
+    L exx, eyy, exy;
   };
   template <class S>
   SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
@@ -79,6 +107,11 @@ struct ForcePairs {
     d.ir = simd::load<L>(ir + j, s.lanes);
     d.lap = Viscosity ? simd::load<L>(lap + j, s.lanes) : simd::zero<L>();
     v.template group<L>(j, s, d.vx, d.vy);
+    if constexpr (Reconstruct) {
+      d.exx = simd::load<L>(exx + j, s.lanes);
+      d.eyy = simd::load<L>(eyy + j, s.lanes);
+      d.exy = simd::load<L>(exy + j, s.lanes);
+    }
   }
   SPHFLUID_INLINE void add(Index i, const Data& d, simd::Mask<L> in, L dx, L dy, L r2, L& fix,
                            L& fiy, L& fjx, L& fjy) const {
@@ -87,9 +120,15 @@ struct ForcePairs {
     const L coef = inv_s * pressure_sum(simd::splat<L>(p[i]), d.p, ir_i, d.ir);
     const L lap_ij =
         Viscosity ? simd::splat<L>(Real(0.5)) * (simd::splat<L>(lap[i]) + d.lap) : simd::zero<L>();
+    L linear = simd::zero<L>();
+    if constexpr (Reconstruct) {
+      linear = linear_vr(in, simd::fmadd(vijx, dx, vijy * dy), simd::splat<L>(exx[i]),
+                         simd::splat<L>(eyy[i]), simd::splat<L>(exy[i]), d.exx, d.eyy, d.exy, dx,
+                         dy, r2, inv_dx2);
+    }
     L fx, fy;
     wcsph::PairForce<Viscosity, true>::f(in, W, c, simd::splat<L>(rho[i]) + d.rho, coef, ir_i,
-                                         d.ir, dx, dy, r2, vijx, vijy, fx, fy, lap_ij);
+                                         d.ir, dx, dy, r2, vijx, vijy, fx, fy, lap_ij, linear);
     fix = fix + fx;
     fiy = fiy + fy;
     fjx = fjx - fx;
@@ -105,12 +144,12 @@ namespace sphfluid::delta {
 // ForcePairs), W21's shifting sum sum_j w_ij V_j r_ij (w the shifting weight
 // times F) and the colour gradient sum_j F_ij V_j r_ij, into outputs 0, 1, 2;
 // j's shares are the same with V_i and r_ji.
-template <class L, bool Viscosity>
+template <class L, bool Viscosity, bool Reconstruct = false>
 struct ShiftForcePairs {
   static constexpr std::size_t kOutputs = 3;
-  ForcePairs<L, Viscosity> force;
+  ForcePairs<L, Viscosity, Reconstruct> force;
   L inv_wdx;
-  using Data = typename ForcePairs<L, Viscosity>::Data;
+  using Data = typename ForcePairs<L, Viscosity, Reconstruct>::Data;
   template <class S>
   SPHFLUID_INLINE void load(Index j, const S& s, Data& d) const {
     force.load(j, s, d);
