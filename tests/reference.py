@@ -252,8 +252,8 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     where the pressure is not below p_b (W26b; pressure_held). `strain`: W30's
     (reconstruction_strain's; None: no reconstruction), whose linear part of v_ij . r_ij,
     the one of a_i = r_ij . E_i r_ij and a_j nearer zero where both are negative,
-    times q^2 (3 - 2q) with q = (r^2/dx^2 - 1/4) / (3/4) in [0, 1], clamped to
-    [v_ij . r_ij, 0], the artificial viscosity leaves out."""
+    times q^2 (3 - 2q) with q = (r^2/dx^2 - 1/4) / (3/4) in [0, 1], the
+    artificial viscosity leaves out."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     B = rho0 * c0**2 / 7.0
@@ -267,6 +267,7 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     vr = (vij * r).sum(-1)
     rho_bar = 0.5 * (rho[:, None] + rho[None, :])
     alpha = continuity_alpha(alpha, eta, rho0, hs, c0)
+    dx = np.sqrt(m / rho0) if spacing is None else spacing
     if alpha > 0 and strain is not None:
         exx, eyy, exy = strain
         def linear(xx, yy, xy):
@@ -274,12 +275,9 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
                 2 * xy[:, None] * r[..., 0] * r[..., 1]
         ai, aj = linear(exx, eyy, exy), linear(exx, eyy, exy).T
         lin = np.where((ai < 0) & (aj < 0), np.maximum(ai, aj), 0.0)  # minmod, approaching
-        dx = np.sqrt(m / rho0) if spacing is None else spacing
         q = np.clip((r2 / dx**2 - 0.25) / 0.75, 0.0, 1.0)  # closer than dx: in part
-        lin = lin * q**2 * (3 - 2 * q)
-        vr = vr - np.maximum(vr, np.minimum(lin, 0.0))  # only ever less viscosity
+        vr = vr - lin * q**2 * (3 - 2 * q)
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
-    dx = np.sqrt(m / rho0) if spacing is None else spacing
     S = gradient_normalisation(h, dx, m / rho0)
     coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) / S + pi_ij
     a = -(m * coef[..., None] * gw).sum(1)

@@ -22,8 +22,9 @@ from sphfluid.validation.cases import CASES
 FIELDS = ("positions", "velocities", "accelerations", "densities", "pressures", "ids")
 
 
-def case_scene(case, method, n, time_step=None, density=None):
+def case_scene(case, method, n, time_step=None, density=None, **solver):
     d = CASES[case].scene(n, method)
+    d["solver"].update(solver)
     if time_step is not None:
         d["solver"]["time_step"] = time_step
         d["solver"].pop("cfl", None)
@@ -37,6 +38,8 @@ def case_scene(case, method, n, time_step=None, density=None):
 RUNS = {
     "seed dam break, fixed dt": (case_scene("dam_break", "seed", 24, time_step=2e-4), 0.01),
     "wcsph continuity dam break": (case_scene("dam_break", "wcsph", 24), 0.02),
+    "wcsph continuity dam break, W30": (
+        case_scene("dam_break", "wcsph", 24, viscosity_reconstruction=True), 0.02),
     "wcsph summation dam break, fixed dt": (
         case_scene("dam_break", "wcsph", 24, time_step=2e-4, density="summation"), 0.01),
     "wcsph continuity cavity, shifting": (case_scene("cavity", "wcsph", 32), 0.01),

@@ -262,7 +262,7 @@ inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Ve
 // meets the whole of it. A particle's velocity gradient from its fluid pairs,
 //   G_i = sum_j V_j (v_j - v_i) (x) grad W_ij / t_i,
 //   t_i = -1/2 sum_j V_j F_ij r_ij^2 (W24's fluid sum: 1 inside a fluid on the
-//   lattice, about 3/4 at a free surface),
+//   lattice, 0.62 at a flat free surface, under 1/2 at a corner),
 // a scalar normalisation in place of the matrix one (on the piston's waves
 // within 1 % of it). Its strain E_i (the symmetric part) counts by the share
 //   s_i = max(0, (|E|^2 - |Omega|^2) / (|E|^2 + |Omega|^2))
@@ -270,7 +270,8 @@ inline void add_wall_hydrostatic(const WallTables& t, Row<Vec2> ghosts, const Ve
 // shear, so that the square lattice's shear mode under pressure (the tank at
 // rest's; docs, "The square lattice under pressure") stays damped. Each side
 // predicts the linear part a_i = r_ij . s_i E_i r_ij of v_ij . r_ij, and W5
-// acts on what is left (linear_vr, below).
+// acts on what is left (linear_vr, below). The walls' W9 and the strain's
+// sums leave the walls' rows alone.
 // A pair's share of i's sums (j's is the same with F V_i): with k = F V_j,
 // (g_xx, g_xy) -= k v_ij,x (dx, dy), (g_yx, g_yy) -= k v_ij,y (dx, dy).
 template <class L>
@@ -297,19 +298,20 @@ inline Strain reconstruction_strain(const Vec2& gx, const Vec2& gy, Real fluid_s
   const Real share = e2 > w2 ? (e2 - w2) / (e2 + w2) : Real(0);
   return {share * xx, share * yy, share * xy};
 }
-// The linear part of an approaching pair's v_ij . r_ij = vr < 0 that the
-// viscosity leaves out (r_ij = (dx, dy), r2 = r^2): each side predicts
-// a_i = r_ij . E_i r_ij, and the pair takes the one nearer zero where both
-// are negative (minmod), else none; closer than the spacing only in part,
-// times q^2 (3 - 2 q), q = (r^2 / dx^2 - 1/4) / (3/4) in [0, 1] (inv_dx2 =
-// 1 / dx^2; none within half a spacing), as Rosswog (2020) keeps the whole
-// viscosity between particles that come too close; and never beyond vr, so
-// that the reconstruction only takes dissipation away, never adds or turns
-// it (a pair parting more slowly than its strain predicts is not pushed
-// apart). A parting pair (vr >= 0) gets vr: all of it is left out, as W5
-// leaves it.
+// The linear part of v_ij . r_ij that the viscosity leaves out (r_ij =
+// (dx, dy), r2 = r^2): each side predicts a_i = r_ij . E_i r_ij, and the pair
+// takes the one nearer zero where both predict an approach (minmod), else
+// none; closer than the spacing only in part, times q^2 (3 - 2 q),
+// q = (r^2 / dx^2 - 1/4) / (3/4) in [0, 1] (inv_dx2 = 1 / dx^2; none within
+// half a spacing), as Rosswog (2020) keeps the whole viscosity between
+// particles that come too close. Never positive, so W5 (which acts where
+// v_ij . r_ij less it is negative) meets only approaching pairs, each on no
+// more than its approach: the reconstruction takes dissipation away, never
+// adds or turns it (a pair parting more slowly than predicted is not pushed
+// apart; with the harmonic mean of a_i and a_j of either sign the water dam
+// break blew up, docs/method-wcsph.md).
 template <class L>
-SPHFLUID_INLINE L linear_vr(simd::Mask<L> in, L vr, L exx_i, L eyy_i, L exy_i, L exx_j, L eyy_j,
+SPHFLUID_INLINE L linear_vr(simd::Mask<L> in, L exx_i, L eyy_i, L exy_i, L exx_j, L eyy_j,
                             L exy_j, L dx, L dy, L r2, L inv_dx2) {
   const L zero = simd::zero<L>();
   const L xx = dx * dx, yy = dy * dy, xy2 = simd::splat<L>(Real(2)) * dx * dy;
@@ -320,7 +322,7 @@ SPHFLUID_INLINE L linear_vr(simd::Mask<L> in, L vr, L exx_i, L eyy_i, L exy_i, L
   const L q = simd::max(zero, simd::min(one, simd::fmadd(r2, inv_dx2, simd::splat<L>(Real(-0.25))) *
                                                  simd::splat<L>(Real(4) / Real(3))));
   const L close = q * q * simd::fnmadd(simd::splat<L>(Real(2)), q, simd::splat<L>(Real(3)));
-  return simd::max(vr, simd::maskz(both, simd::max(ai, aj) * close));
+  return simd::maskz(both, simd::max(ai, aj) * close);
 }
 
 }  // namespace sphfluid::delta

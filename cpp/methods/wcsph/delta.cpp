@@ -1,9 +1,9 @@
-// wcsph with the continuity density (docs/method-wcsph.md, W17-W26) as
+// wcsph with the continuity density (docs/method-wcsph.md, W17-W30) as
 // ordered phases, each one parallel loop whose sums do not depend on the
 // thread count: kick-drift-kick (W14) with the density drifted like a
-// position (W22), around the rate (W17-W18, W20), the Tait state equation
-// without its clamp, the pair forces in the sum form (W19, W4-W6) with the
-// shifting sums (W21), and the walls (W8-W9, W20).
+// position (W22), around the rate (W17-W18, W20; with W30's strains), the
+// Tait state equation without its clamp, the pair forces in the sum form
+// (W19, W4-W6, W30) with the shifting sums (W21), and the walls (W8-W9, W20).
 #include "methods/wcsph/delta.hpp"
 
 #include <algorithm>

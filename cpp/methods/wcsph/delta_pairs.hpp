@@ -1,9 +1,10 @@
 // The continuity density's pair sums as the traversals take them (the cell
 // clusters: load a group, add a pair's shares; the list loops: one lane at a
 // time): the rate of the density with the viscous term's normalisation sum
-// (terms/delta.hpp, W17-W18 and W24), and the pair force in the sum form
-// (W19 with W4-W6), each bound to the data it reads, on any lane type. A
-// pass's two sums ride in the two components of a Vec2 array.
+// (terms/delta.hpp, W17-W18 and W24) with W30's velocity-gradient sums, and
+// the pair force in the sum form (W19 with W4-W6, W30), each bound to the
+// data it reads, on any lane type. Two sums ride in the two components of
+// each output's Vec2 array.
 #pragma once
 
 #include "core/types.hpp"
@@ -122,9 +123,8 @@ struct ForcePairs {
         Viscosity ? simd::splat<L>(Real(0.5)) * (simd::splat<L>(lap[i]) + d.lap) : simd::zero<L>();
     L linear = simd::zero<L>();
     if constexpr (Reconstruct) {
-      linear = linear_vr(in, simd::fmadd(vijx, dx, vijy * dy), simd::splat<L>(exx[i]),
-                         simd::splat<L>(eyy[i]), simd::splat<L>(exy[i]), d.exx, d.eyy, d.exy, dx,
-                         dy, r2, inv_dx2);
+      linear = linear_vr(in, simd::splat<L>(exx[i]), simd::splat<L>(eyy[i]),
+                         simd::splat<L>(exy[i]), d.exx, d.eyy, d.exy, dx, dy, r2, inv_dx2);
     }
     L fx, fy;
     wcsph::PairForce<Viscosity, true>::f(in, W, c, simd::splat<L>(rho[i]) + d.rho, coef, ir_i,
