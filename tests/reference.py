@@ -91,6 +91,20 @@ def wendland_grad(r, h):
     return (-140.0 / (np.pi * h**4) * q**3)[..., None] * r
 
 
+QUINTIC_SUPPORT = 2.8  # W31's support, spacings
+
+
+def quintic_grad(r, h):
+    """grad W of the quintic spline with support h (3 smoothing lengths; W31),
+    for offsets r (..., 2): W = 7 / (478 pi (h/3)^2) [(3-s)^5 - 6 (2-s)^5 + 15 (1-s)^5]
+    with s = 3 |r| / h, each power where its base is positive."""
+    rl = np.sqrt((r**2).sum(-1))
+    s = 3.0 * rl / h
+    a, b, c = (np.clip(k - s, 0.0, None) for k in (3.0, 2.0, 1.0))
+    dw = 7.0 / (478.0 * np.pi) * (3.0 / h) ** 3 * (-5 * a**4 + 30 * b**4 - 75 * c**4)  # W'(r)
+    return (dw / np.where(rl > 0, rl, 1.0))[..., None] * r
+
+
 def wendland(r, h):
     q = np.clip(1.0 - r / h, 0.0, None)
     return 7.0 / (np.pi * h**2) * q**4 * (1.0 + 4.0 * (r / h)) * (r < h)
@@ -209,12 +223,12 @@ def continuity_alpha(alpha, eta, rho0, hs, c0):
     return max(0.0, alpha - 8.0 * eta / (rho0 * hs * c0))
 
 
-def gradient_normalisation(h, dx, vol):
+def gradient_normalisation(h, dx, vol, grad=wendland_grad):
     """W29's S: sum over the square lattice's points y of -V F(|y|) y_2^2, with
-    grad W = F(r) r (the continuum's value is 1)."""
+    grad W = F(r) r (the continuum's value is 1); grad: the kernel's gradient."""
     k = np.arange(-int(np.ceil(h / dx)), int(np.ceil(h / dx)) + 1) * dx
     y = np.stack(np.meshgrid(k, k), -1).reshape(-1, 2)
-    return float(-(vol * wendland_grad(y, h)[:, 1] * y[:, 1]).sum())
+    return float(-(vol * grad(y, h)[:, 1] * y[:, 1]).sum())
 
 
 def reconstruction_strain(x, v, rho, *, h, m, period=None):
@@ -242,7 +256,7 @@ def reconstruction_strain(x, v, rho, *, h, m, period=None):
 
 def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.81),
                  period=None, background_pressure=0.0, lap_sums=None, spacing=None,
-                 held=None, strain=None):
+                 held=None, strain=None, quintic=False):
     """Pressure and acceleration of wcsph with the continuity density and no
     walls (W19 with W4-W5, W24, W29): Tait without the clamp, the sum form
     (p_i + p_j)/(rho_i rho_j) of the pressure term divided by the lattice's
@@ -253,7 +267,9 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     (reconstruction_strain's; None: no reconstruction), whose linear part of v_ij . r_ij,
     the one of a_i = r_ij . E_i r_ij and a_j nearer zero where both are negative,
     times q^2 (3 - 2q) with q = (r^2/dx^2 - 1/4) / (3/4) in [0, 1], the
-    artificial viscosity leaves out."""
+    artificial viscosity leaves out. `quintic`: the pressure's part on the
+    quintic spline of support 2.8 dx with its own S (W31: the core's with
+    quintic_pressure, where nothing shifts)."""
     r = separations(x, period)
     r2 = (r**2).sum(-1)
     B = rho0 * c0**2 / 7.0
@@ -278,9 +294,16 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
         q = np.clip((r2 / dx**2 - 0.25) / 0.75, 0.0, 1.0)  # closer than dx: in part
         vr = vr - lin * q**2 * (3 - 2 * q)
     pi_ij = np.where(vr < 0, -alpha * c0 * hs * vr / (r2 + eps2) / rho_bar, 0.0)
-    S = gradient_normalisation(h, dx, m / rho0)
-    coef = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :]) / S + pi_ij
-    a = -(m * coef[..., None] * gw).sum(1)
+    pressure = (p[:, None] + p[None, :]) / (rho[:, None] * rho[None, :])
+    if quintic:  # W31
+        hp = QUINTIC_SUPPORT * dx
+        S = gradient_normalisation(hp, dx, m / rho0, quintic_grad)
+        a = -(m * (pressure / S)[..., None] * quintic_grad(r, hp)).sum(1) - \
+            (m * pi_ij[..., None] * gw).sum(1)
+    else:
+        S = gradient_normalisation(h, dx, m / rho0)
+        coef = pressure / S + pi_ij
+        a = -(m * coef[..., None] * gw).sum(1)
     if eta > 0:
         if lap_sums is None:
             lap_sums = laplacian_sums(x, rho, h=h, m=m, period=period)

@@ -10,9 +10,13 @@ carried (continuity) density does not see a displacement that keeps the
 volume (a shear), so nothing else restores it. `squeeze` compresses the rows
 along y by that fraction (a hydrostatic column's, W23b).
 
-    python benchmarks/experiments/lattice_stability.py analysis [2,2.5,2.75,3] [SQUEEZE]
-    python benchmarks/experiments/lattice_stability.py elastic [2.75,3,4]
+    python benchmarks/experiments/lattice_stability.py analysis [2,2.5,2.75,3] [SQUEEZE] [--quintic]
+    python benchmarks/experiments/lattice_stability.py elastic [2.75,3,4] [--quintic]
     python benchmarks/experiments/lattice_stability.py run 2.75,3 [N] [PRESSURE]
+
+--quintic analyses the quintic spline of support h (W31's pressure kernel,
+`solver.pressure_kernel`) in place of the Wendland kernel; `run` runs wcsph's
+default, the pressure on the Wendland kernel.
 
 `elastic` takes D(k) at long waves, sum_j (k.r_j)^2 / 2 Hess W(r_j) / |k|^2:
 its transverse part, over its longitudinal one, is a shear modulus the
@@ -43,6 +47,21 @@ def wendland_hessian(x: np.ndarray, y: np.ndarray, h: float):
     return (d2 * ex * ex + f * (1 - ex * ex), (d2 - f) * ex * ey, d2 * ey * ey + f * (1 - ey * ey))
 
 
+def quintic_hessian(x: np.ndarray, y: np.ndarray, h: float):
+    """The Hessian of the 2D quintic spline of support h (s = 3r/h) at (x, y) != 0,
+    up to its normalisation."""
+    r = np.hypot(x, y)
+    s = 3 * r / h
+    a, b, c = (np.clip(k - s, 0, None) for k in (3.0, 2.0, 1.0))
+    d1 = (3 / h) * (-5 * a**4 + 30 * b**4 - 75 * c**4)  # W'(r)
+    d2 = (3 / h) ** 2 * (20 * a**3 - 120 * b**3 + 300 * c**3)  # W''(r)
+    ex, ey, f = x / r, y / r, d1 / r
+    return (d2 * ex * ex + f * (1 - ex * ex), (d2 - f) * ex * ey, d2 * ey * ey + f * (1 - ey * ey))
+
+
+HESSIAN = wendland_hessian  # --quintic: quintic_hessian
+
+
 def smallest_eigenvalue(k: float, squeeze: float = 0.0, samples: int = 121):
     """min over the Brillouin zone of D(k)'s smaller eigenvalue (dx = 1, W(0)'s
     scale), and where."""
@@ -50,7 +69,7 @@ def smallest_eigenvalue(k: float, squeeze: float = 0.0, samples: int = 121):
     i, j = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
     keep = (i != 0) | (j != 0)
     x, y = i[keep].astype(float), j[keep] * (1 - squeeze)
-    hxx, hxy, hyy = wendland_hessian(x, y, k)
+    hxx, hxy, hyy = HESSIAN(x, y, k)
     waves = np.linspace(0, np.pi, samples)
     kx, ky = (a.ravel() for a in np.meshgrid(waves, waves))
     c = 1 - np.cos(np.outer(kx, i[keep]) + np.outer(ky, j[keep]))
@@ -76,7 +95,7 @@ def elastic(ratios: list[float]) -> None:
         i, j = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1))
         keep = (i != 0) | (j != 0)
         x, y = i[keep].astype(float), j[keep].astype(float)
-        hxx, hxy, hyy = wendland_hessian(x, y, k)
+        hxx, hxy, hyy = HESSIAN(x, y, k)
         ratios_k = []
         for e in (np.array([1.0, 0.0]), np.array([1.0, 1.0]) / np.sqrt(2)):
             c = 0.5 * (e[0] * x + e[1] * y) ** 2
@@ -112,6 +131,9 @@ def run(ratios: list[float], n: int, pressure: float) -> None:
 
 
 if __name__ == "__main__":
+    if "--quintic" in sys.argv:
+        sys.argv.remove("--quintic")
+        HESSIAN = quintic_hessian
     mode = sys.argv[1] if len(sys.argv) > 1 else "analysis"
     ks = [float(v) for v in (sys.argv[2] if len(sys.argv) > 2 else "2,2.5,2.75,3").split(",")]
     if mode == "analysis":

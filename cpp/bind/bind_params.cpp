@@ -47,6 +47,9 @@ void bind_params(py::module_& m) {
       .def_readwrite("reconstruct_viscosity", &SimParams::reconstruct_viscosity,
                      "wcsph with continuity: the artificial viscosity on the velocity "
                      "difference left after a limited linear reconstruction (W30)")
+      .def_readwrite("quintic_pressure", &SimParams::quintic_pressure,
+                     "wcsph with continuity: the pressure force on the quintic spline of "
+                     "support 2.8 spacings where nothing shifts (W31)")
       .def_readwrite("density_tolerance", &SimParams::density_tolerance,
                      "dfsph: the constant-density solve's tolerance, mean density error / rho0")
       .def_readwrite("divergence_tolerance", &SimParams::divergence_tolerance,

@@ -107,6 +107,9 @@ struct SimParams {
   // side's limited linear reconstruction to the pair's midpoint, scaled by how
   // much of its velocity gradient is strain rather than rotation (W30).
   bool reconstruct_viscosity = false;
+  // The pressure force on the quintic spline of support 2.8 dx where the flow
+  // is not shifted (W31; needs h >= 2.8 dx), else on the Wendland kernel.
+  bool quintic_pressure = false;
 
   // dfsph (docs/method-dfsph.md): the solves' tolerances, the mean density
   // error over rho0 of the constant-density solve and the mean density change

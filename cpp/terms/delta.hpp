@@ -150,7 +150,8 @@ inline Real artificial_alpha(Real alpha, Real eta, Real rho0, Real hs, Real c0) 
 // W20) are divided by it, so that a resting column's pressure gradient is
 // rho g on the lattice. A constant on every pair: momentum is conserved as it
 // is. vol = m / rho0.
-inline Real gradient_normalisation(const Wendland& W, Real dx, Real vol) {
+template <class Kernel>
+Real gradient_normalisation(const Kernel& W, Real dx, Real vol) {
   const int reach = static_cast<int>(std::ceil(W.h / dx));
   Real sum = 0;
   for (int k = -reach; k <= reach; ++k)

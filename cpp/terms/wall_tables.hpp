@@ -1,12 +1,14 @@
 // wcsph's wall model (docs/method-wcsph.md, eqs. W7-W8): each wall ghost
 // stands for the wall's half-plane filled with fluid at rest, and its share of
 // a particle's density and pressure push are tabulated against the distance
-// to the wall, for the Wendland kernel; where two perpendicular walls meet,
+// to the wall, for a kernel (the Wendland's, or wcsph's pressure kernel, the
+// quintic spline: terms/quintic.hpp); where two perpendicular walls meet,
 // the quadrant beyond both, which the two half-planes count twice, is
 // tabulated against both distances. Reads the kernel; no particle data.
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "core/types.hpp"
@@ -16,7 +18,12 @@ namespace sphfluid {
 
 class WallTables {
  public:
-  explicit WallTables(const Wendland& k) : k_(k) {}
+  // Any kernel with h, h2, inv_h, value(r) and gradient_factor(r): read while
+  // the tables are built (build), its support h while they are read.
+  template <class Kernel>
+  explicit WallTables(const Kernel& k)
+      : k_{k.h, k.h2, k.inv_h, [k](Real r) { return k.value(r); },
+           [k](Real r) { return k.gradient_factor(r); }} {}
 
   // A straight wall's share of a particle at distance d, tabulated on kTable + 1
   // points of d in [0, h]: half(d), the density share over rho0, and line(d),
@@ -211,7 +218,11 @@ class WallTables {
   }
 
  private:
-  Wendland k_;
+  struct Kernel {
+    Real h, h2, inv_h;
+    std::function<Real(Real)> value, gradient_factor;
+  };
+  Kernel k_;
   bool static_rows_ = false;
   Real dx_ = 0;
   std::vector<Real> line_, half_, nn_, tt_, friction_;

@@ -69,6 +69,7 @@ class SimParams(metaclass=_Pybind11Type):
     shift_confined: bool  # with continuity: shift only a flow without a free surface at the start
     surface_pressure: bool  # with continuity: W26b (pressure floored at a free surface), not W26
     reconstruct_viscosity: bool  # with continuity: W30 (the artificial viscosity reconstructed)
+    quintic_pressure: bool  # with continuity: W31 (the pressure on the quintic spline)
     # dfsph
     density_tolerance: float  # the constant-density solve's mean density error / rho0
     divergence_tolerance: float  # the divergence-free solve's mean density change a step / rho0

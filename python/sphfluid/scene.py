@@ -44,6 +44,8 @@ DEFAULT_DENSITY_DIFFUSION = _schema.default("solver", "density_diffusion")
 DEFAULT_SHIFTING = _schema.default("solver", "shifting")
 DEFAULT_FREE_SURFACE = _schema.default("solver", "free_surface")
 DEFAULT_VISCOSITY_RECONSTRUCTION = _schema.default("solver", "viscosity_reconstruction")
+DEFAULT_PRESSURE_KERNEL = _schema.default("solver", "pressure_kernel")
+QUINTIC_SUPPORT = 2.8  # W31's support in spacings (cpp/methods/wcsph/delta.cpp)
 AUTO_SHIFTING = 8.0
 DFSPH_KEYS = ("density_tolerance", "divergence_tolerance", "min_iterations", "max_iterations",
               "max_time_step")  # dfsph's solver keys (PressureSolve's fields)
@@ -200,12 +202,13 @@ class Scene:
     background_pressure: float = 0.0  # wcsph p_b, Pa (flows with no free surface)
     on_instability: str = "stop"  # "stop" | "retry" (halve dt, up to RETRIES times)
     pair_precision: str = "double"  # "float": the seed's pair forces in single precision
-    density: str = "continuity"  # wcsph: "continuity" (W17-W30) or "summation" (W2)
+    density: str = "continuity"  # wcsph: "continuity" (W17-W31) or "summation" (W2)
     density_diffusion: float = DEFAULT_DENSITY_DIFFUSION  # wcsph with continuity: delta
     shifting: float | str = DEFAULT_SHIFTING  # wcsph with continuity: k (0: none) or "auto"
     # wcsph with continuity, at a free surface: "density_floor" (W26), "pressure_floor" (W26b)
     free_surface: str = DEFAULT_FREE_SURFACE
     viscosity_reconstruction: bool = DEFAULT_VISCOSITY_RECONSTRUCTION  # W30
+    pressure_kernel: str = DEFAULT_PRESSURE_KERNEL  # W31
     pressure_solve: PressureSolve = PressureSolve()  # dfsph's solves
     periodic: tuple[bool, bool] = (False, False)  # the domain wraps along x / y
     probes: Any = None  # probes.Probes: measurement probes (extension), or None
@@ -301,6 +304,9 @@ class Scene:
         if self.method == "wcsph" and self.density == "continuity" and \
                 self.viscosity_reconstruction != DEFAULT_VISCOSITY_RECONSTRUCTION:
             out["solver"]["viscosity_reconstruction"] = self.viscosity_reconstruction
+        if self.method == "wcsph" and self.density == "continuity" and \
+                self.pressure_kernel != DEFAULT_PRESSURE_KERNEL:
+            out["solver"]["pressure_kernel"] = self.pressure_kernel
         if self.method == "dfsph":
             out["solver"].update(self.pressure_solve.to_dict())
             if self.time_step is not None:
@@ -400,6 +406,7 @@ class _Solver(NamedTuple):
     shifting: float | str | None
     free_surface: str | None
     viscosity_reconstruction: bool | None
+    pressure_kernel: str | None
     pressure_solve: PressureSolve
 
 
@@ -480,6 +487,7 @@ class _Validator:
         self.check_cell_grid(domain, res)
         self.check_periodic_extent(domain, res, solver.method, fluid.sigma)
         self.check_tension_lattice(domain, res, solver.method, fluid.sigma)
+        self.check_pressure_kernel(res, solver)
         self.check_sliding_walls(solver)
         self.check_regions_inside(domain, regions)
         self.check_walls_near(domain, walls)
@@ -503,6 +511,7 @@ class _Validator:
                       density=solver.density, density_diffusion=solver.density_diffusion,
                       shifting=solver.shifting, free_surface=solver.free_surface,
                       viscosity_reconstruction=solver.viscosity_reconstruction,
+                      pressure_kernel=solver.pressure_kernel,
                       pressure_solve=solver.pressure_solve,
                       probes=probes, emitters=tuple(emitters),
                       sinks=tuple(sinks), inlets=tuple(inlets), outlets=tuple(outlets),
@@ -538,7 +547,8 @@ class _Validator:
         if method != "wcsph":
             density = "summation"  # the seed's (SPEC.md)
         elif density is None and not ({"density", "density_diffusion", "shifting",
-                                       "free_surface", "viscosity_reconstruction"}
+                                       "free_surface", "viscosity_reconstruction",
+                                       "pressure_kernel"}
                                       & set(solver)):
             density = None  # default_density's, once the fluid is known
         else:
@@ -559,6 +569,7 @@ class _Validator:
             free_surface=self.value(solver, "free_surface", p, DEFAULT_FREE_SURFACE),
             viscosity_reconstruction=self.value(solver, "viscosity_reconstruction", p,
                                                 DEFAULT_VISCOSITY_RECONSTRUCTION),
+            pressure_kernel=self.value(solver, "pressure_kernel", p, DEFAULT_PRESSURE_KERNEL),
             pressure_solve=self.pressure_solve(solver))
 
     def pressure_solve(self, solver: dict) -> PressureSolve:
@@ -786,6 +797,15 @@ class _Validator:
                 self.fail("domain.periodic", f"with surface tension, wcsph needs a periodic "
                           f"{axis_name} axis at least 4 smoothing lengths plus half a spacing "
                           f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
+
+    def check_pressure_kernel(self, res: _Resolution, solver: _Solver) -> None:
+        """W31's quintic spline reaches 2.8 spacings: the search's support must too."""
+        if solver.pressure_kernel == "quintic" and res.dx and res.h and \
+                res.h < QUINTIC_SUPPORT * res.dx * (1 - 1e-9):
+            self.fail("solver.pressure_kernel", f'"quintic" needs a support h of at least '
+                      f"{QUINTIC_SUPPORT:g} spacings (resolution.smoothing_length; "
+                      f"{res.h / res.dx:.3g} given): its spline reaches that far "
+                      "(docs/method-wcsph.md, W31)")
 
     def check_tension_lattice(self, domain: _Domain, res: _Resolution, method: Any,
                               sigma: float | None) -> None:

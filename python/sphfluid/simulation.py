@@ -91,6 +91,7 @@ def _params(scene: Scene, threads: int | None) -> _core.SimParams:
         p.delta = scene.density_diffusion
         p.surface_pressure = scene.free_surface == "pressure_floor"  # W26b, else W26
         p.reconstruct_viscosity = bool(scene.viscosity_reconstruction)  # W30
+        p.quintic_pressure = scene.pressure_kernel == "quintic"  # W31
         if scene.shifting == "auto":  # W21: only a flow with no free surface at its start
             p.shifting, p.shift_confined = AUTO_SHIFTING, True
         else:

@@ -1,9 +1,10 @@
-// wcsph with the continuity density (docs/method-wcsph.md, W17-W30) as
+// wcsph with the continuity density (docs/method-wcsph.md, W17-W31) as
 // ordered phases, each one parallel loop whose sums do not depend on the
 // thread count: kick-drift-kick (W14) with the density drifted like a
 // position (W22), around the rate (W17-W18, W20; with W30's strains), the
 // Tait state equation without its clamp, the pair forces in the sum form
-// (W19, W4-W6, W30) with the shifting sums (W21), and the walls (W8-W9, W20).
+// (W19, W4-W6, W30; with W31 the pressure's on its kernel where nothing shifts) with
+// the shifting sums (W21), and the walls (W8-W9, W20).
 #include "methods/wcsph/delta.hpp"
 
 #include <algorithm>
@@ -31,15 +32,29 @@ constexpr Real kShiftCap = 0.2;
 // 27 m/s; half the largest speed made the cavity's error at 30 across 0.044
 // against 0.034).
 constexpr Real kShiftSpeed = 1.0;
+// W31: the quintic spline's support where it carries the pressure, in
+// spacings. Its square lattice is stable under a uniform pressure at 2.6-2.8
+// (benchmarks/experiments/lattice_stability.py analysis 2.6,2.7,2.8 0 --quintic)
+// and the pressure lends it almost no shear stiffness; at 2.5 and 2.9-3 it is
+// unstable, as the Wendland kernel is at 2.8-3.5.
+constexpr Real kQuinticSupport = 2.8;
 }  // namespace
 
 DeltaWcsphMethod::DeltaWcsphMethod(Context& ctx)
-    : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_) {
+    : ctx_(ctx), P_(ctx.params()), kernel_(P_.h), weight_(kernel_), walls_(kernel_),
+      pressure_kernel_(kQuinticSupport * spacing()), pressure_walls_(pressure_kernel_) {
   walls_.build(P_.spacing, P_.mass / P_.rho0, true);  // rows fixed to the wall (W20)
   const Real dx = spacing();
   inv_wdx_ = 1 / kernel_.value(dx);
   open_sum_ = delta::open_surface_sum(kernel_, dx, P_.mass / P_.rho0);
   inv_s_ = 1 / delta::gradient_normalisation(kernel_, dx, P_.mass / P_.rho0);  // W29
+  // W31, asked for and within the search's reach (the loader refuses a support
+  // h below 2.8 spacings with it; the core keeps W's pressure there)
+  quintic_ = P_.quintic_pressure && pressure_kernel_.h <= P_.h * (1 + Real(1e-9));
+  if (quintic_) {
+    pressure_walls_.build(P_.spacing, P_.mass / P_.rho0, true);
+    inv_s_quintic_ = 1 / delta::gradient_normalisation(pressure_kernel_, dx, P_.mass / P_.rho0);
+  }
   alpha_ = delta::artificial_alpha(P_.alpha, P_.eta, P_.rho0, Real(0.5) * P_.h, P_.c0);
   reconstruct_ = P_.reconstruct_viscosity && alpha_ > 0;  // W30
   // The shift moves with its particle through the sort; with "auto" the field
@@ -441,17 +456,19 @@ void DeltaWcsphMethod::state() {
   ctx_.timer.mark(kDensity);
 }
 
-template <unsigned F, class L, bool R>
-delta::ForcePairs<L, (F & kViscosity) != 0, R> DeltaWcsphMethod::force_pairs() const {
+template <unsigned F, class L, bool R, bool Q>
+delta::ForcePairs<L, (F & kViscosity) != 0, R, Q> DeltaWcsphMethod::force_pairs() const {
   const ParticleSet& ps = ctx_.ps;
   return {ps.rho.data(), ps.p.data(), inv_rho_.data(), lap_.data(), {ps.v.data()}, kernel_,
-          constants<L>(), simd::splat<L>(inv_s_), strain_[0].data(), strain_[1].data(),
-          strain_[2].data(), simd::splat<L>(1 / (spacing() * spacing()))};
+          constants<L>(), simd::splat<L>(Q ? inv_s_quintic_ : inv_s_), strain_[0].data(),
+          strain_[1].data(), strain_[2].data(), simd::splat<L>(1 / (spacing() * spacing())),
+          pressure_kernel_};
 }
 
 // The force pass by cell clusters: with shifting, its three sums at once;
-// with R, W30's reconstruction. Returns false where the clusters do not run.
-template <unsigned F, bool R>
+// with R, W30's reconstruction; with Q (nothing shifts), W31's pressure.
+// Returns false where the clusters do not run.
+template <unsigned F, bool R, bool Q>
 bool DeltaWcsphMethod::forces_by_cells() {
 #if SPHFLUID_AVX512
   if constexpr (by_cells(F)) {
@@ -469,12 +486,13 @@ bool DeltaWcsphMethod::forces_by_cells() {
       cells.pair_sums(ctx_.search.grid(), frame, pair,
                       std::array<Vec2*, 3>{a, shift_sum_->data(), colour_->data()}, ctx_.team());
     } else {
-      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8, R>(), a, ctx_.team());
+      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8, R, Q>(), a,
+                      ctx_.team());
     }
     if constexpr ((F & kWalls) != 0) {
       ctx_.ghosts.rows().for_each_nonempty_row(ctx_.team(), [&](Index i, Row<Vec2> ghosts) {
         Vec2 f = a[i];
-        add_wall_force<F>(i, ghosts, f);
+        add_wall_force<F, Q>(i, ghosts, f);
         a[i] = f;
         if (shifting) (*shift_sum_)[i] = Vec2::Zero();  // within h of a wall: no shift
       });
@@ -492,24 +510,25 @@ bool DeltaWcsphMethod::forces_by_cells() {
 template <unsigned F>
 void DeltaWcsphMethod::forces() {
   shift_ready_ = shifts_next();  // whether the next drift shifts (shift_for)
+  const bool quintic = quintic_ && !shift_ready_;  // W31
   if (reconstruct_) {
-    forces_with<F, true>();
+    quintic ? forces_with<F, true, true>() : forces_with<F, true, false>();
   } else {
-    forces_with<F, false>();
+    quintic ? forces_with<F, false, true>() : forces_with<F, false, false>();
   }
   ctx_.timer.mark(kForces);
 }
 
-template <unsigned F, bool R>
+template <unsigned F, bool R, bool Q>
 void DeltaWcsphMethod::forces_with() {
   ParticleSet& ps = ctx_.ps;
   const Index n = ps.size();
   const bool shifting = shift_ready_;  // the shifting sums only where they are used
-  if (forces_by_cells<F, R>()) return;
+  if (forces_by_cells<F, R, Q>()) return;
   struct Sums {
     Vec2 f, s, c;
   };
-  const auto force = force_pairs<F, Real, R>();
+  const auto force = force_pairs<F, Real, R, Q>();
   const Real* ir = inv_rho_.data();
   const Real m = P_.mass, inv_wdx = inv_wdx_;
   const Wendland& W = kernel_;
@@ -527,7 +546,7 @@ void DeltaWcsphMethod::forces_with() {
     Vec2 f = sum.f, s = sum.s;
     if constexpr ((F & kWalls) != 0) {
       const Row<Vec2> ghosts = ctx_.ghosts.row(i);
-      add_wall_force<F>(i, ghosts, f);
+      add_wall_force<F, Q>(i, ghosts, f);
       if (shifting && ghosts.begin() != ghosts.end()) s.setZero();  // within h of a wall
     }
     ps.a[i] = f;
@@ -552,8 +571,9 @@ void DeltaWcsphMethod::forces_with() {
 
 
 // The walls' push on particle i (W8-W9's pressure and artificial viscosity,
-// W25's friction, W20's hydrostatic part) added to f.
-template <unsigned F>
+// W25's friction, W20's hydrostatic part) added to f; with Q the pressure's
+// parts (W8, W20) on W31's kernel, as the fluid pairs' pressure.
+template <unsigned F, bool Q>
 void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const {
   const ParticleSet& ps = ctx_.ps;
   const Real* p = ps.p.data();
@@ -562,12 +582,14 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
   // W8 and W9's artificial viscosity, the rows at the particle's density
   // (W20); the physical one by W25's rows
   const wcsph::PairConstants<Real> c = constants<Real>();
-  const Real pi2 = inv_s_ * p[i] * ir[i] * ir[i];
+  const WallTables& pressure = Q ? pressure_walls_ : walls_;
+  const Real inv_s = Q ? inv_s_quintic_ : inv_s_;
+  const Real pi2 = inv_s * p[i] * ir[i] * ir[i];
   if (ctx_.walls.moves()) {  // the ghosts move with their wall
-    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
+    wcsph::add_wall_force<false>(pressure, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
                                  VelocityToWall{ctx_.walls, ps.x[i], v[i]}, f);
   } else {
-    wcsph::add_wall_force<false>(walls_, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
+    wcsph::add_wall_force<false>(pressure, kernel_, c, 1 / ir[i], ghosts, pi2, ir[i],
                                  VelocityAsIs{v[i]}, f);
   }
   if constexpr ((F & kViscosity) != 0) {
@@ -578,7 +600,7 @@ void DeltaWcsphMethod::add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const 
       delta::add_wall_friction(walls_, ghosts, P_.eta, lap_[i], ir[i], VelocityAsIs{v[i]}, f);
     }
   }
-  delta::add_wall_hydrostatic(walls_, ghosts, inv_s_ * P_.gravity, f);  // W29's 1 / S
+  delta::add_wall_hydrostatic(pressure, ghosts, inv_s * P_.gravity, f);  // W29's 1 / S
 }
 
 // W21: the next drift's shift, -k U dt hs s_i (U the largest speed, hs = h/2),

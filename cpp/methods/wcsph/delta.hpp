@@ -21,6 +21,7 @@
 #include "methods/wcsph/delta_pairs.hpp"
 #include "methods/wcsph/surface_energy.hpp"
 #include "terms/delta.hpp"
+#include "terms/quintic.hpp"
 #include "terms/wall_tables.hpp"
 #include "terms/wcsph.hpp"
 #include "terms/wendland.hpp"
@@ -72,11 +73,12 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F, class Constants> void rates(Constants constants, Vec2* rl);
   void state();
   template <unsigned F> void forces();
-  template <unsigned F, bool R> void forces_with();
-  template <unsigned F, bool R> bool forces_by_cells();
-  template <unsigned F, class L, bool R>
-  delta::ForcePairs<L, (F & kViscosity) != 0, R> force_pairs() const;
-  template <unsigned F> void add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const;
+  // R: W30's reconstruction; Q: the pressure on the quintic spline (W31).
+  template <unsigned F, bool R, bool Q> void forces_with();
+  template <unsigned F, bool R, bool Q> bool forces_by_cells();
+  template <unsigned F, class L, bool R, bool Q = false>
+  delta::ForcePairs<L, (F & kViscosity) != 0, R, Q> force_pairs() const;
+  template <unsigned F, bool Q> void add_wall_force(Index i, Row<Vec2> ghosts, Vec2& f) const;
   // W4-W6's constants with W28's alpha.
   template <class L>
   wcsph::PairConstants<L> constants() const {
@@ -107,6 +109,13 @@ class DeltaWcsphMethod final : public SphMethod {
   Wendland kernel_;
   WendlandWeight weight_;
   WallTables walls_;
+  // W31 (P_.quintic_pressure): the pressure's kernel where the flow is not
+  // shifted (with a support h of at least kQuinticSupport spacings), its wall
+  // tables and 1 / its S (W29)
+  QuinticSpline pressure_kernel_;
+  WallTables pressure_walls_;
+  Real inv_s_quintic_ = 1;
+  bool quintic_ = false;
   SurfaceEnergy surface_;  // the tension (W10-W12; inactive without it)
   StepFn* step_fn_ = nullptr;
   EvalFn* eval_fn_ = nullptr;

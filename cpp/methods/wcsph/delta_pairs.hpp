@@ -2,7 +2,7 @@
 // clusters: load a group, add a pair's shares; the list loops: one lane at a
 // time): the rate of the density with the viscous term's normalisation sum
 // (terms/delta.hpp, W17-W18 and W24) with W30's velocity-gradient sums, and
-// the pair force in the sum form (W19 with W4-W6, W30), each bound to the
+// the pair force in the sum form (W19 with W4-W6, W30, W31), each bound to the
 // data it reads, on any lane type. Two sums ride in the two components of
 // each output's Vec2 array.
 #pragma once
@@ -10,6 +10,7 @@
 #include "core/types.hpp"
 #include "neighbours/access.hpp"
 #include "terms/delta.hpp"
+#include "terms/quintic.hpp"
 #include "terms/wcsph.hpp"
 
 namespace sphfluid::delta {
@@ -83,7 +84,9 @@ struct RatePairs {
 // the pressure's part divided by the lattice's S (times inv_s, W29):
 // i gets f, j gets -f. With Reconstruct, the artificial viscosity leaves out
 // the linear part of v_ij . r_ij from the strains e_xx, e_yy, e_xy (W30).
-template <class L, bool Viscosity, bool Reconstruct = false>
+// With Quintic, the pressure's part takes the quintic spline's gradient
+// (pressure_kernel, its own S in inv_s; W31), the viscosities W's.
+template <class L, bool Viscosity, bool Reconstruct = false, bool Quintic = false>
 struct ForcePairs {
   const Real* rho;
   const Real* p;
@@ -97,6 +100,7 @@ struct ForcePairs {
   const Real* eyy = nullptr;
   const Real* exy = nullptr;
   L inv_dx2 = simd::zero<L>();  // 1 / spacing^2
+  QuinticSpline pressure_kernel{1};  // W31 (read with Quintic only)
   struct Data {
     L rho, p, ir, lap, vx, vy;
     L exx, eyy, exy;
@@ -127,8 +131,14 @@ struct ForcePairs {
                          simd::splat<L>(exy[i]), d.exx, d.eyy, d.exy, dx, dy, r2, inv_dx2);
     }
     L fx, fy;
-    wcsph::PairForce<Viscosity, true>::f(in, W, c, simd::splat<L>(rho[i]) + d.rho, coef, ir_i,
-                                         d.ir, dx, dy, r2, vijx, vijy, fx, fy, lap_ij, linear);
+    wcsph::PairForce<Viscosity, true>::f(in, W, c, simd::splat<L>(rho[i]) + d.rho,
+                                         Quintic ? simd::zero<L>() : coef, ir_i, d.ir, dx, dy,
+                                         r2, vijx, vijy, fx, fy, lap_ij, linear);
+    if constexpr (Quintic) {  // W31: the pressure's part on the spline
+      const L mc = simd::maskz(in, c.m * coef * pressure_kernel.gradient_factor(simd::sqrt(r2)));
+      fx = simd::fnmadd(mc, dx, fx);
+      fy = simd::fnmadd(mc, dy, fy);
+    }
     fix = fix + fx;
     fiy = fiy + fy;
     fjx = fjx - fx;
