@@ -799,9 +799,16 @@ class _Validator:
                           f"({4 * h + dx / 2:g} m) {extent}, got {length:g} m")
 
     def check_pressure_kernel(self, res: _Resolution, solver: _Solver) -> None:
-        """W31's quintic spline reaches 2.8 spacings: the search's support must too."""
-        if solver.pressure_kernel == "quintic" and res.dx and res.h and \
-                res.h < QUINTIC_SUPPORT * res.dx * (1 - 1e-9):
+        """W31's quintic spline reaches 2.8 spacings: the search's support must too;
+        and it acts where nothing shifts."""
+        if solver.pressure_kernel != "quintic":
+            return
+        if isinstance(solver.shifting, float) and solver.shifting > 0:
+            self.fail("solver.pressure_kernel", f'"quintic" acts in a flow that is not '
+                      f'shifted: with "shifting": {solver.shifting:g} the pressure stays on '
+                      'the Wendland kernel (give "shifting": 0 or "auto"; '
+                      "docs/method-wcsph.md, W31)")
+        elif res.dx and res.h and res.h < QUINTIC_SUPPORT * res.dx * (1 - 1e-9):
             self.fail("solver.pressure_kernel", f'"quintic" needs a support h of at least '
                       f"{QUINTIC_SUPPORT:g} spacings (resolution.smoothing_length; "
                       f"{res.h / res.dx:.3g} given): its spline reaches that far "

@@ -213,7 +213,7 @@ std::size_t DeltaWcsphMethod::bytes() const {
   return (lap_.capacity() + inv_rho_.capacity()) * sizeof(Real) +
          (rate_lap_.capacity() + grad_x_.capacity() + grad_y_.capacity()) * sizeof(Vec2) +
          (strain_[0].capacity() + strain_[1].capacity() + strain_[2].capacity()) * sizeof(Real) +
-         walls_.bytes() + surface_.bytes();
+         walls_.bytes() + (quintic_ ? pressure_walls_.bytes() : 0) + surface_.bytes();
 }
 
 // Kick-drift-kick with the density drifted like a position (W22): v += dt/2 a;
@@ -475,12 +475,15 @@ bool DeltaWcsphMethod::forces_by_cells() {
     if (!by_cells_) return false;
     constexpr bool kVisc = (F & kViscosity) != 0;
     ParticleSet& ps = ctx_.ps;
-    const bool shifting = shifts_next();
+    const bool shifting = shift_ready_;  // (never with Q: forces())
     // eight lanes a group (four: 10 % slower at 10k, three spacings' support)
     const PositionFrame<simd::D8> frame(ps.x.data(), P_.h);
     const CellPairs& cells = ctx_.search.cells();
     Vec2* a = ps.a.data();
-    if (shifting) {
+    if constexpr (Q) {  // W31 where nothing shifts
+      cells.pair_sums(ctx_.search.grid(), frame, force_pairs<F, simd::D8, R, Q>(), a,
+                      ctx_.team());
+    } else if (shifting) {
       const delta::ShiftForcePairs<simd::D8, kVisc, R> pair{force_pairs<F, simd::D8, R>(),
                                                             simd::splat<simd::D8>(inv_wdx_)};
       cells.pair_sums(ctx_.search.grid(), frame, pair,
