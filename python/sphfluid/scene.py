@@ -46,6 +46,11 @@ DEFAULT_FREE_SURFACE = _schema.default("solver", "free_surface")
 DEFAULT_VISCOSITY_RECONSTRUCTION = _schema.default("solver", "viscosity_reconstruction")
 DEFAULT_PRESSURE_KERNEL = _schema.default("solver", "pressure_kernel")
 QUINTIC_SUPPORT = 2.8  # W31's support in spacings (cpp/methods/wcsph/delta.cpp)
+# The continuity density's solver keys with their defaults (Scene.to_dict writes a
+# key where it differs).
+CONTINUITY_DEFAULTS = {"shifting": DEFAULT_SHIFTING, "free_surface": DEFAULT_FREE_SURFACE,
+                       "viscosity_reconstruction": DEFAULT_VISCOSITY_RECONSTRUCTION,
+                       "pressure_kernel": DEFAULT_PRESSURE_KERNEL}
 AUTO_SHIFTING = 8.0
 DFSPH_KEYS = ("density_tolerance", "divergence_tolerance", "min_iterations", "max_iterations",
               "max_time_step")  # dfsph's solver keys (PressureSolve's fields)
@@ -295,18 +300,10 @@ class Scene:
             out["solver"]["density"] = self.density
         if self.density_diffusion != DEFAULT_DENSITY_DIFFUSION:
             out["solver"]["density_diffusion"] = self.density_diffusion
-        if self.method == "wcsph" and self.density == "continuity" and \
-                self.shifting != DEFAULT_SHIFTING:
-            out["solver"]["shifting"] = self.shifting
-        if self.method == "wcsph" and self.density == "continuity" and \
-                self.free_surface != DEFAULT_FREE_SURFACE:
-            out["solver"]["free_surface"] = self.free_surface
-        if self.method == "wcsph" and self.density == "continuity" and \
-                self.viscosity_reconstruction != DEFAULT_VISCOSITY_RECONSTRUCTION:
-            out["solver"]["viscosity_reconstruction"] = self.viscosity_reconstruction
-        if self.method == "wcsph" and self.density == "continuity" and \
-                self.pressure_kernel != DEFAULT_PRESSURE_KERNEL:
-            out["solver"]["pressure_kernel"] = self.pressure_kernel
+        if self.method == "wcsph" and self.density == "continuity":
+            for key, default in CONTINUITY_DEFAULTS.items():  # saved where they differ
+                if getattr(self, key) != default:
+                    out["solver"][key] = getattr(self, key)
         if self.method == "dfsph":
             out["solver"].update(self.pressure_solve.to_dict())
             if self.time_step is not None:
