@@ -198,7 +198,7 @@ void Context::flows_set() {
   flows.fill_inlets(time_, new_x_, new_v_);
   if (!new_x_.empty()) append(size());
   new_x_.clear();
-  flows.fill_outlets(new_x_);
+  flows.fill_outlets(new_x_, ps.x.data(), size());
   new_v_.assign(new_x_.size(), Vec2::Zero());
   if (!new_x_.empty()) append(size(), false);
 }
@@ -229,9 +229,11 @@ void Context::append(Index n, bool entered) {
 // across the line of the fluid within a support before it in their lane (a
 // zero gradient: a lane's particles keep their distances, and none drifts
 // into a wall beside the buffer): the step's accelerations are taken back
-// from their velocity and path. A lane whose fluid flows back (or that has
-// none) leaves its particles free. Past the buffer they leave (counted as
-// out). The lanes' sums run in index order, the same for any thread count.
+// from their velocity and path. A lane whose fluid is at rest or flows back
+// holds its particles at rest (no backflow through the line: water at rest
+// against an outlet stays at rest); one with no fluid before it leaves them
+// free. Past the buffer they leave (counted as out). The lanes' sums run in
+// index order, the same for any thread count.
 void Context::hold_outlets() {
   const Index n = size();
   Vec2* x = ps.x.data();
@@ -260,14 +262,15 @@ void Context::hold_outlets() {
   Real* head = head_->data();
 #pragma omp parallel for schedule(static) num_threads(team()) reduction(| : leaving)
   for (Index i = 0; i < n; ++i) {
-    held[i] = place[i].zone == Flows::kHeld && lane_v[place[i].lane].squaredNorm() > 0;
+    held[i] = place[i].zone == Flows::kHeld && lane_count_[place[i].lane] > 0;
     head[i] = 0;
     if (!held[i]) continue;
     // (along the outlet only: the drift across it, walls' reflections
     // included, stands, and a reflected particle is not pushed back)
     const Vec2 u = lane_v[place[i].lane];
     const Real along_u = u.norm();
-    const Vec2 out = u / along_u;
+    const Vec2 out = along_u > 0 ? Vec2(u / along_u)
+                                 : flows.outlet_of_lane(place[i].lane).direction;
     x[i] -= dt * (v[i].dot(out) - along_u) * out;
     v[i] = u;
     const Real depth = surface[flows.outlet_index_of_lane(place[i].lane)] - x[i].dot(up);
@@ -285,7 +288,8 @@ void Context::hold_outlets() {
 // From the fluid before the outlets' lines (`place`: each particle's), in one
 // pass in index order:
 // - each lane's velocity: straight out at the mean speed across the line,
-//   zero where that flows back or is missing;
+//   zero where that flows back (lane_count_: how many particles it averages,
+//   0 where none is before the line);
 // - each outlet's free surface, the level its held particles' hydrostatic
 //   pressure is measured from (Tafuni et al. 2018 hold an outflow's pressure
 //   hydrostatic, as DualSPHysics's buffers do): the outlet's "level" where the

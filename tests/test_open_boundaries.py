@@ -397,3 +397,50 @@ def test_one_and_two_threads_identical_with_an_outlet_under_gravity(level):
     """The outlet's surface (the highest particle before its line) and head."""
     sim = same_on_one_and_two_threads(open_channel("wcsph", level), 0.3)
     assert sim.balance["out"] > 20
+
+
+def test_an_outlets_buffer_starts_full_only_below_the_fluids_surface():
+    """The free surface crosses the outlet (0.2 m wide, the water 0.1 m deep):
+    its buffer is filled in the lanes with fluid before the line, not above
+    (a block of water above the surface would fall and set the fluid moving)."""
+    sim = sphfluid.Simulation(open_channel("wcsph", level=0.1))
+    x, y = sim.positions.T
+    buffer = (x > 0.53) & (x < 0.53 + 0.03)
+    assert buffer.sum() == 3 * 10  # three rows of the ten lanes below 0.1 m
+    assert y[buffer].max() < 0.1 and y[buffer].max() == pytest.approx(y[x < 0.53].max())
+
+
+def reservoir(level: float | None) -> dict:
+    """Water 0.1 m deep at rest in a basin 0.5 m long whose right side is an
+    outlet 0.2 m wide (the free surface crosses it), wcsph's defaults."""
+    outlet = {"at": [0.5, 0.1], "direction": [1.0, 0.0], "width": 0.2}
+    if level is not None:
+        outlet["level"] = level
+    return {
+        "format": "sphfluid-scene/1",
+        "domain": {"min": [-0.02, -0.02], "max": [0.6, 0.3]},
+        "fluid": {"rest_density": 1000.0, "viscosity": 1e-3},
+        "resolution": {"spacing": DX},
+        "fluid_regions": [{"shape": "rectangle", "min": [0.0, 0.0], "max": [0.5, 0.1]}],
+        "walls": [{"polyline": [[0.0, 0.3], [0.0, 0.0], [0.6, 0.0]]}],
+        "outlets": [outlet],
+        "solver": {"method": "wcsph", "time_step": "auto"},
+    }
+
+
+@pytest.mark.parametrize("level", [None, 0.1])
+def test_water_at_rest_against_an_outlet_stays_at_rest(level):
+    """A lane whose fluid is at rest (or flows back) holds its particles at
+    rest at the hydrostatic pressure: the basin neither drains nor moves
+    (measured: nothing out, 0.004 m/s at most over 1 s; with such lanes left
+    free and the buffer full to its width, over 100 of the 500 particles went
+    out within 1 s and the water reached 0.1-0.25 m/s)."""
+    sim = sphfluid.Simulation(reservoir(level))
+    fastest = 0.0
+    for t in np.arange(0.1, 1.01, 0.1):
+        sim.advance_to(float(t))
+        inside = sim.positions[:, 0] < 0.5
+        fastest = max(fastest, float(np.linalg.norm(sim.velocities[inside], axis=1).max()))
+    assert sim.balance["out"] <= 2
+    assert fastest < 0.02
+    assert balanced(sim)

@@ -214,7 +214,12 @@ void Flows::fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v) {
   }
 }
 
-void Flows::fill_outlets(std::vector<Vec2>& x) {
+void Flows::fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n) {
+  std::vector<char> wet(lanes_, 0);
+  for (Index i = 0; i < n; ++i) {
+    const Place p = outlet_place(fluid[i], dx_);
+    if (p.zone == kUpstream) wet[p.lane] = 1;
+  }
   for (std::size_t k = 0; k < outlets_.size(); ++k) {
     if (outlet_filled_[k]) continue;
     outlet_filled_[k] = 1;
@@ -223,9 +228,11 @@ void Flows::fill_outlets(std::vector<Vec2>& x) {
     const auto rows = std::max<std::int64_t>(1, std::llround(o.depth / dx_));
     const auto count = std::max<std::int64_t>(1, std::llround(o.width / dx_));
     for (std::int64_t r = 0; r < rows; ++r)
-      for (std::int64_t j = 0; j < count; ++j)
-        x.push_back(o.at + (Real(r) + Real(0.5)) * dx_ * o.direction +
-                    (Real(j) + Real(0.5) - Real(0.5) * Real(count)) * dx_ * across);
+      for (std::int64_t j = 0; j < count; ++j) {
+        const Real off = (Real(j) + Real(0.5) - Real(0.5) * Real(count)) * dx_;
+        if (wet[lane_at(k, off)])
+          x.push_back(o.at + (Real(r) + Real(0.5)) * dx_ * o.direction + off * across);
+      }
   }
 }
 
@@ -302,12 +309,15 @@ Flows::Place Flows::outlet_place(const Vec2& p, Real reach) const {
     if (!(along >= -reach && along < 2 * o.depth)) continue;
     const Real off = rel.x() * -o.direction.y() + rel.y() * o.direction.x();
     if (!(std::abs(off) <= Real(0.5) * o.width)) continue;
-    const int lanes = first_lane_[k + 1] - first_lane_[k];
-    const int lane =
-        std::clamp(static_cast<int>((off / o.width + Real(0.5)) * lanes), 0, lanes - 1);
-    return {along < 0 ? kUpstream : along < o.depth ? kHeld : kPast, first_lane_[k] + lane};
+    return {along < 0 ? kUpstream : along < o.depth ? kHeld : kPast, lane_at(k, off)};
   }
   return {};
+}
+
+int Flows::lane_at(std::size_t k, Real off) const {
+  const int lanes = first_lane_[k + 1] - first_lane_[k];
+  return first_lane_[k] +
+         std::clamp(static_cast<int>((off / outlets_[k].width + Real(0.5)) * lanes), 0, lanes - 1);
 }
 
 void Flows::set_travelled(const std::vector<Real>& travelled) {

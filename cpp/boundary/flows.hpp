@@ -40,8 +40,8 @@ struct Emitter {
 // A line centred at `at`, `width` across, that particles cross along
 // `direction` (a unit vector, out of the fluid) into a buffer `depth` deep:
 // there they move along `direction` at the speed the fluid has just before
-// the line in their lane (a zero gradient), and leave the run past the
-// buffer's far side.
+// the line in their lane (a zero gradient; at rest where that fluid is at rest
+// or flows back), and leave the run past the buffer's far side.
 struct Outlet {
   Vec2 at = Vec2::Zero();
   Vec2 direction = Vec2(1, 0);
@@ -88,10 +88,12 @@ class Flows {
   // time t, appended to x and v (their rows a spacing apart, the front one
   // half a spacing behind the line); each inlet's travel set to match.
   void fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v);
-  // The buffers of the outlets not yet filled (likewise), full of fluid at
-  // rest on the lattice (rows a spacing apart from half a spacing past the
-  // line: the fluid runs on past it at the start); appended to x.
-  void fill_outlets(std::vector<Vec2>& x);
+  // The buffers of the outlets not yet filled (likewise): fluid at rest on
+  // the lattice (rows a spacing apart from half a spacing past the line: the
+  // fluid runs on past it at the start) in the lanes that have fluid within a
+  // spacing before the line (among the n positions `fluid`: a free surface
+  // crossing the outlet is not filled above); appended to x.
+  void fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n);
   // After the particles were replaced (Solver::set_state): an inlet's or
   // outlet's buffer that holds none of the n positions x is to be filled
   // again (fill_inlets, fill_outlets); one that holds some keeps them.
@@ -133,6 +135,8 @@ class Flows {
   void keep_outlets(const std::vector<Outlet>& outlets, std::vector<char>& filled);
   std::int64_t row_count(const Emitter& e) const;
   int inlet_holding(const Vec2& x) const;  // the inlet whose buffer holds x, or -1
+  // The lane (numbered over all outlets) at `off` across outlet k's centre.
+  int lane_at(std::size_t k, Real off) const;
   void row(const Emitter& e, Real along, const Vec2& u, std::vector<Vec2>& x,
            std::vector<Vec2>& v) const;
   Vec2 inflow(const Emitter& e, Real t) const;

@@ -13,8 +13,9 @@ method (``cpp/boundary/flows.hpp``), and counts what enters and what is sunk
 behind its line, ``buffer_depth`` deep, where they are held on the lattice at
 the inflow's velocity, so the fluid beyond the line has its full kernel
 support; an outlet is a line beyond which particles move straight out, at
-their lane's mean speed before the line and the reference pressure, through a
-buffer as deep, and leave past its far side (counted as out). A wall's motion
+their lane's mean speed before the line (held at rest where that is at rest
+or flows back) and the reference pressure, through a buffer as deep, and
+leave past its far side (counted as out). A wall's motion
 moves it as a rigid body along tables of (time, value): its drawn position
 translated and turned about a point; the core meets particles in each moving
 wall's own frame, so none passes through it, and the boundary terms take

@@ -253,8 +253,12 @@ void DfsphMethod::non_pressure() {
   ctx_.add_gravity_and_kick(0, (F & kSurfaceTension) != 0 ? surface_.accelerations() : nullptr);
   a_np_.assign(a, a + n);
   evaluated_ = true;
+  // (an outlet's held particle: the pressure the density solve held it at)
   Real* p = ps.p.data();
-  for (Index i = 0; i < n; ++i) p[i] = kappa_[i] * rho[i] * rho[i];
+  const std::int8_t* held = ctx_.outlet_held();
+  const Real* head = ctx_.outlet_pressure();
+  for (Index i = 0; i < n; ++i)
+    p[i] = held && held[i] ? head[i] : kappa_[i] * rho[i] * rho[i];
   ctx_.timer.mark(kForces);
 }
 
