@@ -74,8 +74,8 @@ QUICK_BOUNDS: dict[tuple[str, str, int], float] = {
     ("basin", "wcsph", 15): 0.61,  # 0.4363 (W26b; W26 left loose spray: 1.673)
     ("basin", "wcsph", 20): 0.45,  # 0.3208
     ("basin", "wcsph", 30): 0.21,  # 0.1453
-    ("channel", "seed", 10): 0.32,  # 0.223 (seed-float 0.187)
-    ("channel", "seed", 20): 0.23,  # 0.148 (seed-float 0.161)
+    ("channel", "seed", 10): 0.32,  # 0.2448 (seed-float 0.2042)
+    ("channel", "seed", 20): 0.23,  # 0.1481 (seed-float 0.1408)
     ("channel", "wcsph", 10): 0.045,  # 0.03214
     ("channel", "wcsph", 20): 0.041,  # 0.02903
     ("wave_maker", "wcsph", 10): 0.36,  # 0.2627
