@@ -126,6 +126,7 @@ class Solver {
   // steps (by CPU).
   bool float_pairs() const { return method_->float_pairs(); }
   bool recip_root() const { return method_->recip_root(); }
+  bool quintic_pressure() const { return method_->quintic_pressure(); }
   std::int64_t retried_steps() const { return retried_steps_; }
   // Messages of the most recent retries (at most kRetryLog), oldest first.
   const std::vector<std::string>& retry_log() const { return retry_log_; }

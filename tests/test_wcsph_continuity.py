@@ -803,6 +803,33 @@ def test_quintic_pressure_holds_the_tank_at_rest():
     y, p = sim.positions[:, 1], sim.pressures
     rms = np.sqrt(np.mean((p - RHO0 * 9.81 * (case.length - y)) ** 2)) / (RHO0 * 9.81)
     assert rms < 0.003
+    assert sim.stats()["pressure_kernel"] == "quintic"
+
+
+def test_stats_and_the_run_say_which_pressure_kernel_ran(tmp_path, capsys):
+    """W31 acts only in a flow that is not shifted: under "shifting": "auto" a
+    confined flow (the cavity) is shifted and keeps the Wendland pressure;
+    stats() and `sphfluid run`'s header say so."""
+    from sphfluid.cli import main
+    from sphfluid.validation.cases import CASES
+
+    ran = {}
+    for name in ("hydrostatic", "cavity"):
+        d = CASES[name].scene(10, "wcsph")
+        d["solver"]["pressure_kernel"] = "quintic"
+        d["duration"] = 0.02
+        sim = sphfluid.Simulation(d)
+        sim.step(2)
+        ran[name] = sim.stats()["pressure_kernel"]
+        (tmp_path / f"{name}.json").write_text(json.dumps(d))
+        assert main(["run", str(tmp_path / f"{name}.json"), "--quiet"]) == 0
+        shifted = "the flow is shifted, W31 does not act" in capsys.readouterr().err
+        assert shifted == (name == "cavity")
+    assert ran == {"hydrostatic": "quintic", "cavity": "wendland"}
+    d = CASES["hydrostatic"].scene(10, "wcsph")
+    assert sphfluid.Simulation(d).stats()["pressure_kernel"] == "wendland"
+    assert sphfluid.Simulation(CASES["hydrostatic"].scene(10, "seed")).stats()[
+        "pressure_kernel"] is None
 
 
 def test_quintic_pressure_is_the_same_on_one_thread_and_two():

@@ -335,6 +335,10 @@ void def_threads(SolverClass& c) {
                              "whether the pair forces run in single precision: asked for "
                              "(SimParams.float_pairs), seed, and the step runs them by cell "
                              "clusters (no surface tension, no periodic axis, an AVX-512 build)")
+      .def_property_readonly("quintic_pressure", &Solver::quintic_pressure,
+                             "wcsph's continuity density: whether the last evaluation's pressure "
+                             "force ran on W31's quintic spline (asked for, and the flow not "
+                             "shifted)")
       .def_property_readonly("recip_root", &Solver::recip_root,
                              "whether the seed's double pair forces by cell clusters take 1/r "
                              "from rsqrt14 and two Newton steps instead of a square root and a "

@@ -49,6 +49,9 @@ class SphMethod {
   // from Newton steps (other methods: false).
   virtual bool float_pairs() const { return false; }
   virtual bool recip_root() const { return false; }
+  // wcsph's continuity density: whether the last evaluation's pressure force
+  // ran on W31's quintic spline (asked for, and the flow not shifted).
+  virtual bool quintic_pressure() const { return false; }
   // Particles [first, size) were just set or added: a method that carries
   // state of its own (a density) gives them their initial values.
   virtual void particles_added(Index first) { (void)first; }

@@ -269,6 +269,10 @@ class Solver(metaclass=_Pybind11Type):
     def float_pairs(self) -> bool:
         """Whether the pair forces run in single precision (asked for, seed, cell clusters)."""
     @property
+    def quintic_pressure(self) -> bool:
+        """wcsph's continuity density: whether the last evaluation's pressure force ran on
+        W31's quintic spline (asked for, and the flow not shifted)."""
+    @property
     def recip_root(self) -> bool:
         """Whether the seed's double pair forces by cell clusters take 1/r from rsqrt14 and
         two Newton steps instead of a square root and a division (chosen by CPU)."""

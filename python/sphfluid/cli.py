@@ -584,6 +584,8 @@ def _run_header(args, sim, duration: float) -> str:
         precision = (" (pair forces in float)" if sim.stats()["pair_precision"] == "float" else
                      " (pair forces in double: float runs without surface tension and periodic "
                      "axes, in AVX-512 builds)")
+    if scene.pressure_kernel == "quintic" and sim.stats()["pressure_kernel"] != "quintic":
+        precision += " (pressure on the Wendland kernel: the flow is shifted, W31 does not act)"
     if sim.time > 0:  # resumed
         step_text += f", resuming at t = {sim.time:.6g} s (step {sim.step_count:,})"
     return (f"{scene.name or Path(args.scene).name}: {sim.n_particles:,} particles, "

@@ -702,6 +702,12 @@ class Simulation:
             # the precision the seed's pair forces ran in (solver.pair_precision: "float"
             # runs where the cell clusters do, else "double")
             "pair_precision": "float" if self._solver.float_pairs else "double",
+            # wcsph's continuity density: the kernel its last evaluation's pressure force
+            # ran on ("quintic" where solver.pressure_kernel asks for it and the flow is
+            # not shifted; W31), None for the other methods
+            "pressure_kernel": (("quintic" if self._solver.quintic_pressure else "wendland")
+                                if self.scene.method == "wcsph"
+                                and self.scene.density == "continuity" else None),
             "n_particles": self.n_particles,
             "removed_particles": self.removed_particles,
             # particles in (emitters), out (outlets), sunk and lost (= removed_particles)

@@ -43,6 +43,7 @@ class DeltaWcsphMethod final : public SphMethod {
   void restore_carried(const std::vector<Real>& values) override;
   Real elastic_energy() const override;
   Real surface_energy() const override { return surface_.energy(); }
+  bool quintic_pressure() const override { return quintic_ && !shift_ready_; }
   std::size_t bytes() const override;
 
   struct Steps {
