@@ -198,7 +198,7 @@ void Context::flows_set() {
   flows.fill_inlets(time_, new_x_, new_v_);
   if (!new_x_.empty()) append(size());
   new_x_.clear();
-  flows.fill_outlets(new_x_, ps.x.data(), size());
+  flows.fill_outlets(new_x_, ps.x.data(), size(), params_.h);
   new_v_.assign(new_x_.size(), Vec2::Zero());
   if (!new_x_.empty()) append(size(), false);
 }

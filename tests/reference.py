@@ -167,7 +167,7 @@ def surface_floor(x, rho, *, h, m, rho0, period=None):
 
 
 def pressure_held(x, rho, *, h, m, rho0, period=None):
-    """W26b: where the pressure is floored at p_b: a kernel sum S below 0.95,
+    """W26b: where the pressure is floored at 0: a kernel sum S below 0.95,
     or a density below rho0 (S - 0.05) (stretched spray that gathered)."""
     sums = kernel_sums(x, h=h, m=m, rho0=rho0, period=period)
     return (sums < 0.95) | (rho < rho0 * (sums - 0.05))
@@ -263,7 +263,7 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     gradient normalisation S (spacing sqrt(m / rho0) by default), the viscous term
     2 m eta/(rho_i rho_j) F_ij v_ij (c_i + c_j)/2 with c = -2 / lap_sums
     (laplacian_sums of these positions and densities by default). `held`:
-    where the pressure is not below p_b (W26b; pressure_held). `strain`: W30's
+    where the pressure is not below 0 (W26b; pressure_held). `strain`: W30's
     (reconstruction_strain's; None: no reconstruction), whose linear part of v_ij . r_ij,
     the one of a_i = r_ij . E_i r_ij and a_j nearer zero where both are negative,
     times q^2 (3 - 2q) with q = (r^2/dx^2 - 1/4) / (3/4) in [0, 1], the
@@ -275,7 +275,7 @@ def delta_forces(x, v, rho, *, h, m, rho0, c0, alpha, eta=0.0, gravity=(0.0, -9.
     B = rho0 * c0**2 / 7.0
     p = B * ((rho / rho0) ** 7 - 1.0) + background_pressure
     if held is not None:
-        p = np.where(held & (p < background_pressure), background_pressure, p)
+        p = np.where(held & (p < 0.0), 0.0, p)
     gw = wendland_grad(r, h)
     vij = v[:, None, :] - v[None, :, :]
     hs = 0.5 * h

@@ -41,7 +41,7 @@ void bind_params(py::module_& m) {
                      "wcsph with continuity: shift only a flow with no free surface at "
                      "its start")
       .def_readwrite("surface_pressure", &SimParams::surface_pressure,
-                     "wcsph with continuity: at a free surface floor the pressure at p_b "
+                     "wcsph with continuity: at a free surface floor the pressure at 0 "
                      "and keep the carried density (W26b), instead of flooring the density "
                      "at rho0 (W26)")
       .def_readwrite("reconstruct_viscosity", &SimParams::reconstruct_viscosity,

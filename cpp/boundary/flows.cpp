@@ -214,10 +214,10 @@ void Flows::fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v) {
   }
 }
 
-void Flows::fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n) {
+void Flows::fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n, Real reach) {
   std::vector<char> wet(lanes_, 0);
   for (Index i = 0; i < n; ++i) {
-    const Place p = outlet_place(fluid[i], dx_);
+    const Place p = outlet_place(fluid[i], reach);
     if (p.zone == kUpstream) wet[p.lane] = 1;
   }
   for (std::size_t k = 0; k < outlets_.size(); ++k) {

@@ -4,8 +4,9 @@
 // line and are held there on the lattice at the inflow velocity, so that the
 // fluid beyond the line has its full kernel support; outlets, lines beyond
 // which particles move straight out at their lane's mean speed before the
-// line, at the reference pressure, through a buffer as deep as an inlet's
-// until they leave its far side; and sinks, regions that
+// line (at rest where that fluid is at rest or flows back), at the reference
+// pressure (under gravity with the hydrostatic head), through a buffer as
+// deep as an inlet's until they leave its far side; and sinks, regions that
 // remove whatever enters them. The Context applies them once a step, after
 // the drift (Context::exchange), so every method has them and pays nothing
 // without them.
@@ -90,10 +91,11 @@ class Flows {
   void fill_inlets(Real t, std::vector<Vec2>& x, std::vector<Vec2>& v);
   // The buffers of the outlets not yet filled (likewise): fluid at rest on
   // the lattice (rows a spacing apart from half a spacing past the line: the
-  // fluid runs on past it at the start) in the lanes that have fluid within a
-  // spacing before the line (among the n positions `fluid`: a free surface
-  // crossing the outlet is not filled above); appended to x.
-  void fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n);
+  // fluid runs on past it at the start) in the lanes that have fluid within
+  // `reach` before the line (among the n positions `fluid`; the reach the
+  // lanes' speeds are averaged over: a free surface crossing the outlet is
+  // not filled above); appended to x.
+  void fill_outlets(std::vector<Vec2>& x, const Vec2* fluid, Index n, Real reach);
   // After the particles were replaced (Solver::set_state): an inlet's or
   // outlet's buffer that holds none of the n positions x is to be filled
   // again (fill_inlets, fill_outlets); one that holds some keeps them.

@@ -101,7 +101,7 @@ struct SimParams {
   Real shifting = 0;
   bool shift_confined = false;
   // At a free surface (W26): false floors the density at rho0; true keeps the
-  // carried density and floors the pressure at p_b instead (W26b).
+  // carried density and floors the pressure at 0 instead (W26b).
   bool surface_pressure = false;
   // The artificial viscosity on the velocity difference left after each
   // side's limited linear reconstruction to the pair's midpoint, scaled by how

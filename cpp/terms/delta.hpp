@@ -76,16 +76,18 @@ inline Real surface_floor(Real rho, Real sum, Real rho0) {
   return sum < kSurfaceSum && rho < rho0 ? rho0 : rho;
 }
 // W26b: or the density stays as carried, and there the pressure is not below
-// the background pressure p_b (no tension at a free surface or in spray); nor
-// where the carried density rho is below the summed one (rho0 sum) by more
-// than kStretched rho0: particles closer than their density says hold no
-// tension, spray stretched in flight that has gathered again (until
-// continuity and the diffusion have brought its density back) or, inside a
-// confined flow, particles bunched beyond their carried density.
+// zero (no tension at a free surface or in spray, as W3's clamp; under a
+// background pressure p_b, pressures between 0 and p_b are the suction a
+// confined flow needs, behind a block in a channel); nor where the carried
+// density rho is below the summed one (rho0 sum) by more than kStretched rho0:
+// particles closer than their density says hold no tension, spray stretched
+// in flight that has gathered again (until continuity and the diffusion have
+// brought its density back) or, inside a confined flow, particles bunched
+// beyond their carried density.
 constexpr Real kStretched = 0.05;
-inline Real surface_pressure(Real p, Real sum, Real pb, Real rho, Real rho0) {
+inline Real surface_pressure(Real p, Real sum, Real rho, Real rho0) {
   const bool open = sum < kSurfaceSum || rho < rho0 * (sum - kStretched);
-  return open && p < pb ? pb : p;
+  return open && p < 0 ? Real(0) : p;
 }
 
 // W24: the normalisation of the viscous term (the Laplacian of Morris et al.

@@ -462,7 +462,7 @@ void DeltaWcsphMethod::state() {
   for (Index i = 0; i < n; ++i) {
     const Real r = rho[i] / rho0, r2 = r * r, r3 = r2 * r;
     p[i] = B * (r3 * r3 * r - 1) + pb;
-    if (floor_pressure) p[i] = delta::surface_pressure(p[i], sums[i], pb, rho[i], rho0);
+    if (floor_pressure) p[i] = delta::surface_pressure(p[i], sums[i], rho[i], rho0);
     inv_rho[i] = 1 / rho[i];
   }
   ctx_.timer.mark(kDensity);
