@@ -239,6 +239,8 @@ def test_dfsph_starts_a_long_channel_from_rest_within_its_iterations():
      "not be [0, 0]"),
     (lambda d: d["outlets"][0].update(rate=3), "outlets[0].rate", "unknown key"),
     (lambda d: d["outlets"][0].update(level="high"), "outlets[0].level", "number"),
+    (lambda d: d["outlets"].append(dict(d["outlets"][0], width=0.05)), "outlets[1]",
+     "overlaps outlets[0]'s"),
 ])
 def test_bad_inlets_and_outlets_are_refused_by_json_path(change, where, words):
     d = channel()
@@ -247,6 +249,15 @@ def test_bad_inlets_and_outlets_are_refused_by_json_path(change, where, words):
         sphfluid.load_scene(d)
     lines = [line for line in str(e.value).splitlines() if line.strip().startswith(where + ":")]
     assert lines and words in lines[0], str(e.value)
+
+
+def test_buffers_side_by_side_load():
+    """Two outlets whose buffers share a side (each half the channel) are not an
+    overlap; the whole outlet twice is (above)."""
+    d = channel()
+    d["outlets"] = [{"at": [0.37, 0.025], "direction": [1.0, 0.0], "width": 0.05},
+                    {"at": [0.37, 0.075], "direction": [1.0, 0.0], "width": 0.05}]
+    assert len(sphfluid.load_scene(d).outlets) == 2
 
 
 def test_the_run_summary_gives_the_balance_with_what_went_out(tmp_path, capsys):

@@ -442,6 +442,32 @@ def check_buffers(v, inlets: list, outlets: list, dx: float, depth: float,
                    "points into the domain's fluid for an inlet, out of it for an outlet")
 
 
+def check_overlaps(v, inlets: list, outlets: list, dx: float, depth: float) -> None:
+    """No two buffers (inlets' and outlets') overlapping by more than a quarter
+    spacing: a particle in both would be held by both, and a lane counted twice."""
+    zones = [(f"inlets[{k}]", e.zone(dx, depth)) for k, e in enumerate(inlets)]
+    zones += [(f"outlets[{k}]", o.zone(depth)) for k, o in enumerate(outlets)]
+    for b in range(len(zones)):
+        for a in range(b):
+            if _rectangles_overlap(zones[a][1], zones[b][1], 0.25 * dx):
+                v.fail(zones[b][0], f"its buffer overlaps {zones[a][0]}'s: buffers must not "
+                       "share particles (move one, or narrow it)")
+                break
+
+
+def _rectangles_overlap(p: np.ndarray, q: np.ndarray, margin: float) -> bool:
+    """Whether two rectangles (corners in order) overlap by more than margin along
+    every axis of their sides (separating axes)."""
+    for corners in (p, q):
+        for j in range(2):
+            edge = corners[j + 1] - corners[j]
+            axis = np.array([-edge[1], edge[0]]) / np.hypot(*edge)
+            a, b = p @ axis, q @ axis
+            if min(a.max(), b.max()) - max(a.min(), b.min()) <= margin:
+                return False
+    return True
+
+
 def _in_rectangle(corners: np.ndarray, points: np.ndarray, margin: float) -> int:
     """How many points lie inside the rectangle by more than margin."""
     origin, e1, e2 = corners[0], corners[1] - corners[0], corners[3] - corners[0]

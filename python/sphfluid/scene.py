@@ -515,8 +515,9 @@ class _Validator:
                       damping_zones=tuple(damping), source=self.source)
         self.check_regions_hold_points(scene.regions, res.dx)
         if sinks or inlets or outlets:
-            from .flows import check_buffers, check_sinks
+            from .flows import check_buffers, check_overlaps, check_sinks
 
+            check_overlaps(self, inlets, outlets, res.dx, scene.buffer_depth())
             initial = None if self.problems else scene.lattice_points()[0]
             check_sinks(self, sinks, domain.lo, domain.hi, initial)
             check_buffers(self, inlets, outlets, res.dx, scene.buffer_depth(), initial)
