@@ -580,11 +580,12 @@ def _run_header(args, sim, duration: float) -> str:
                  else f"dt {scene.time_step:g} s, "
                       f"{math.ceil(duration / scene.time_step - 1e-9):,} steps")
     precision = ""
+    stats = sim.stats()
     if scene.pair_precision != "double":  # say which ran: float needs the cell clusters
-        precision = (" (pair forces in float)" if sim.stats()["pair_precision"] == "float" else
+        precision = (" (pair forces in float)" if stats["pair_precision"] == "float" else
                      " (pair forces in double: float runs without surface tension and periodic "
                      "axes, in AVX-512 builds)")
-    if scene.pressure_kernel == "quintic" and sim.stats()["pressure_kernel"] != "quintic":
+    if scene.pressure_kernel == "quintic" and stats["pressure_kernel"] != "quintic":
         precision += " (pressure on the Wendland kernel: the flow is shifted, W31 does not act)"
     if sim.time > 0:  # resumed
         step_text += f", resuming at t = {sim.time:.6g} s (step {sim.step_count:,})"

@@ -430,12 +430,9 @@ def check_buffers(v, inlets: list, outlets: list, dx: float, depth: float,
     ``paths`` the inlets' and outlets' indices in the scene (default 0, 1, ...)."""
     if initial is None or not len(initial):
         return
-    ins, outs = paths or (list(range(len(inlets))), list(range(len(outlets))))
-    zones = [(f"inlets[{k}]", e.zone(dx, depth), "faces out of the fluid: its buffer, behind "
-              "the line, holds") for k, e in zip(ins, inlets)]
-    zones += [(f"outlets[{k}]", o.zone(depth), "lies inside the fluid: its buffer holds")
-              for k, o in zip(outs, outlets)]
-    for path, corners, what in zones:
+    for path, corners, kind in _buffer_zones(inlets, outlets, dx, depth, paths):
+        what = ("faces out of the fluid: its buffer, behind the line, holds" if kind == "inlet"
+                else "lies inside the fluid: its buffer holds")
         inside = _in_rectangle(corners, initial, 0.25 * dx)
         if inside:
             v.fail(path, f"{what} {inside} particle(s) of {fluid}; its direction "
@@ -445,14 +442,22 @@ def check_buffers(v, inlets: list, outlets: list, dx: float, depth: float,
 def check_overlaps(v, inlets: list, outlets: list, dx: float, depth: float) -> None:
     """No two buffers (inlets' and outlets') overlapping by more than a quarter
     spacing: a particle in both would be held by both, and a lane counted twice."""
-    zones = [(f"inlets[{k}]", e.zone(dx, depth)) for k, e in enumerate(inlets)]
-    zones += [(f"outlets[{k}]", o.zone(depth)) for k, o in enumerate(outlets)]
+    zones = _buffer_zones(inlets, outlets, dx, depth)
     for b in range(len(zones)):
         for a in range(b):
             if _rectangles_overlap(zones[a][1], zones[b][1], 0.25 * dx):
                 v.fail(zones[b][0], f"its buffer overlaps {zones[a][0]}'s: buffers must not "
                        "share particles (move one, or narrow it)")
                 break
+
+
+def _buffer_zones(inlets: list, outlets: list, dx: float, depth: float,
+                  paths: tuple[list[int], list[int]] | None = None) -> list[tuple]:
+    """(JSON path, the buffer's corners, "inlet" or "outlet") of each inlet and
+    outlet; ``paths`` their indices in the scene (default 0, 1, ...)."""
+    ins, outs = paths or (list(range(len(inlets))), list(range(len(outlets))))
+    return ([(f"inlets[{k}]", e.zone(dx, depth), "inlet") for k, e in zip(ins, inlets)]
+            + [(f"outlets[{k}]", o.zone(depth), "outlet") for k, o in zip(outs, outlets)])
 
 
 def _rectangles_overlap(p: np.ndarray, q: np.ndarray, margin: float) -> bool:
