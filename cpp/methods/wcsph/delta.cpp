@@ -373,22 +373,6 @@ void DeltaWcsphMethod::rates(Constants constants, Vec2* rl) {
   }
 }
 
-// W22b: the drift takes a carried density no lower than m W(0), a lone
-// particle's summed density (the least a summed one can be): spray that
-// spreads apart keeps a lone particle's volume and its density stays
-// positive. (A pass of its own: the drift is the same statement, rounding and
-// all, for every other particle.)
-void DeltaWcsphMethod::bound_drift(Real dt, Vec2* rl) const {
-  const Index n = ctx_.ps.size();
-  const Real* rho = ctx_.ps.rho.data();
-  const Real least = P_.mass * kernel_.value(0);
-#pragma omp parallel for schedule(static) num_threads(ctx_.team())
-  for (Index i = 0; i < n; ++i) {
-    const Real change = dt * rl[i].x();
-    if (change < 0 && rho[i] + change < least) rl[i].x() = (std::min(rho[i], least) - rho[i]) / dt;
-  }
-}
-
 // The rate of each particle's density (W17-W18, the walls' W20) from the
 // half-step velocities at the new positions, with the viscous term's
 // normalisation sum (W24), then rho += dt D.
@@ -429,7 +413,7 @@ void DeltaWcsphMethod::density(Real dt) {
     });
   }
   Real* rho_w = ps.rho.data();
-  bound_drift(dt, rl);  // W22b
+  const Real least = P_.mass * kernel_.value(0);  // W22b
   Real* lap = lap_.data();
   const Real* sums = sums_.data();
   const Real rho0 = P_.rho0;
@@ -437,7 +421,8 @@ void DeltaWcsphMethod::density(Real dt) {
   Index surface = 0;
 #pragma omp parallel for schedule(static) num_threads(ctx_.team()) reduction(+ : surface)
   for (Index i = 0; i < n; ++i) {
-    const Real carried = rho_w[i] + dt * rl[i].x();
+    // W22b: not below m W(0), a lone particle's summed density, nor below itself there
+    const Real carried = std::max(rho_w[i] + dt * rl[i].x(), std::min(rho_w[i], least));
     rho_w[i] = floor_pressure ? carried : delta::surface_floor(carried, sums[i], rho0);
     lap[i] = delta::laplacian_norm(rl[i].y());
     if (!shape_known_) surface += sums[i] < open_sum_;

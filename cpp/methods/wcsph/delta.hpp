@@ -69,9 +69,6 @@ class DeltaWcsphMethod final : public SphMethod {
   template <unsigned F> void evaluate_kick(Real dt, Real half);
   template <unsigned F> void neighbours();
   template <unsigned F> void density(Real dt);
-  // W22b: the rates (rl's x) of the particles whose drift over dt would take
-  // their density below m W(0), set to stop it there.
-  void bound_drift(Real dt, Vec2* rl) const;
   template <unsigned F, bool Shift, bool Gradient, class Constants>
   void rate_pass(Constants constants, Vec2* rl);
   template <unsigned F, class Constants> void rates(Constants constants, Vec2* rl);
