@@ -165,6 +165,9 @@ class DfsphMethod final : public SphMethod {
   // The search, factors and a_np_ hold for the current particles (the step
   // starts with a solve over them); false after a checkpoint is restored.
   bool evaluated_ = false;
+  // The flow's own step (step_impl): the density solve undoes the present
+  // error over it.
+  Real undo_dt_ = 0;
 };
 
 }  // namespace sphfluid
