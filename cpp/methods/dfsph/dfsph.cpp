@@ -279,8 +279,8 @@ void DfsphMethod::density_solve(Real dt) {
   // flow's own step (undo_dt_, step_impl): a step shortened to land on an
   // end time, or by the last step's pressure accelerations in the force
   // condition, takes its share of it. Undone within a short step it takes an
-  // impulse growing as 1 / dt^2, whose accelerations shorten the next step
-  // further: the 10,000-particle dam break blew up so at an end time, and
+  // acceleration growing as 1 / dt^2, which shortens the next step further:
+  // the 10,000-particle dam break blew up so at an end time, and
   // the 1,000,000-particle one's step fell from 3 ms to 3 us in 13 steps
   // until the guard stopped it.
   const Real share = std::min(dt / undo_dt_, Real(1));
